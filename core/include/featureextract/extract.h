@@ -1,0 +1,55 @@
+// The one entry point: extract(reference, target, params). The CLI, the Python bindings and the
+// FreeCAD workbench all call it (or its two halves, describe() + match(), to reuse a target).
+#pragma once
+
+#include "featureextract/mesh.h"
+#include "featureextract/params.h"
+#include "featureextract/result.h"
+
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace fe {
+
+/// Progress: stage name and fraction in [0, 1] of that stage. Return false to cancel (extract then
+/// throws fe::Cancelled). Called from the calling thread only.
+using ProgressFn = std::function<bool(const std::string& stage, double fraction)>;
+
+/// Steps 1-3 of the paper for one shape: samples, normals, shape index, key points, SHOT.
+/// Immutable once built; holds what match() needs. Descriptors depend on the feature size L
+/// (the reference diagonal), so a target description is reusable for references of the same L.
+class ShapeDescription {
+ public:
+  enum class Role { Reference, Target };
+  struct Impl;
+  ShapeDescription() = default;
+  explicit ShapeDescription(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+  bool empty() const { return !impl_; }
+  const Impl& impl() const { return *impl_; }
+  ShapeStats stats() const;
+  double feature_size() const;
+  Role role() const;
+  /// Seconds per stage spent building it.
+  std::vector<std::pair<std::string, double>> timings() const;
+  std::vector<std::string> warnings() const;
+
+ private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// Describes a shape. `feature_size` is L, the reference diagonal (pass reference.diagonal()).
+/// Throws InputError (e.g. "reference has no distinctive key points"), Cancelled.
+ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
+                          double feature_size, const Params& params, const ProgressFn& progress = {});
+
+/// Steps 4-6: pairs, clusters, RANSAC, validation. `target` must be described with the same
+/// feature size and parameters that affect descriptors; throws std::invalid_argument otherwise.
+Result match(const ShapeDescription& reference, const ShapeDescription& target,
+             const TriangleMesh& target_mesh, const Params& params, const ProgressFn& progress = {});
+
+/// All six steps. Throws InputError for bad input (message names the shape), Cancelled.
+Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params = {},
+               const ProgressFn& progress = {});
+
+}  // namespace fe

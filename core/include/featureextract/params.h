@@ -1,0 +1,83 @@
+// Parameters of the extraction, with their defaults. Lengths are fractions of the reference
+// feature's bounding-box diagonal L ("feature size"), so one set of defaults serves a 5 mm boss and
+// a 500 mm bracket. The table in params.cpp documents each one (CLI --help, JSON, Python docstrings).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fe {
+
+struct Params {
+  // --- reproducibility and resources
+  std::uint64_t seed = 1;        ///< seed of sampling and RANSAC; same input + seed = same output
+  int threads = 0;               ///< worker threads for SHOT; 0 = all cores
+
+  // --- step 1: sampling (x L)
+  double dense_spacing = 0.014;  ///< spacing of the dense samples (support of descriptors, validation)
+  double sparse_spacing = 0.035; ///< spacing of the sparse samples (candidate key points)
+  std::size_t max_dense_points = 2000000;  ///< cap; spacing grows (with a warning) beyond it
+
+  // --- step 2: descriptors (x L unless said otherwise)
+  double normal_radius = 0.035;     ///< PCA normal support radius
+  double curvature_radius = 0.045;  ///< quadric-fit support radius for principal curvatures
+  double planar_curvedness = 1.5;   ///< curvedness * L below which a point is planar (SI = -1)
+  double shot_radius = 0.10;        ///< smallest SHOT support radius
+  int shot_radii = 3;               ///< number of SHOT radii per descriptor (paper: multiple radii)
+  double shot_radius_ratio = 1.26;  ///< ratio between consecutive SHOT radii (also the scale step)
+  double scale_min = 0.8;           ///< smallest target/reference scale searched by SHOT shifts
+  double scale_max = 2.6;           ///< largest target/reference scale searched by SHOT shifts
+
+  // --- step 3: key points (shape index bands)
+  double si_band = 0.07;  ///< half-width of the rut (0.25) and ridge (0.75) bands that are not key points
+
+  // --- step 4: pairs
+  int shot_neighbours = 6;      ///< N: nearest reference key points in SHOT space per target key point
+  int si_neighbours = 12;       ///< M: nearest reference key points in SI per target key point
+  double pair_distance = 0.06;  ///< delta (x L): SHOT pair kept if an SI pair lies this close at both ends
+
+  // --- step 5: clusters (x L)
+  double cluster_tolerance = 1.0;  ///< Euclidean clustering tolerance of paired target key points
+  int min_cluster_pairs = 5;       ///< clusters with fewer pairs are dropped
+
+  // --- step 6: RANSAC projective transform
+  int ransac_max_iterations = 4000;  ///< upper bound of iterations per instance search
+  int ransac_patience = 600;         ///< stop after this many iterations without improvement
+  int refine_iterations = 10;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
+  int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
+  double error_quantile = 0.8;       ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
+  double accept_error = 0.05;        ///< accept if that error <= this x L x scale
+  double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target
+  double volume_ratio_min = 0.3;     ///< bounds of |det| of the linear part (volume expansion ratio)
+  double volume_ratio_max = 20.0;
+  double axis_scale_min = 0.5;       ///< bounds of each singular value of the linear part
+  double axis_scale_max = 3.2;
+  double max_anisotropy = 3.0;       ///< largest / smallest singular value (oblique distortion)
+  double max_perspective = 0.25;     ///< largest |w - 1| over the reference feature's box
+  bool allow_reflection = false;     ///< accept transforms with negative determinant (mirror images)
+
+  // --- result
+  double face_coverage = 0.5;  ///< a target face is listed if this fraction of it is covered
+  double max_overlap = 0.3;    ///< instances sharing more of their region than this are merged
+
+  /// Throws std::invalid_argument naming the first parameter out of its range.
+  void validate() const;
+};
+
+/// One documented parameter, for --help, JSON and bindings.
+struct ParamInfo {
+  std::string name;
+  std::string type;   ///< "int", "float", "bool", "uint64"
+  std::string unit;   ///< "x L", "", "count", ...
+  std::string help;
+  std::string default_value;
+};
+const std::vector<ParamInfo>& param_table();
+
+/// Parameters as a JSON object text (all of them, as used).
+std::string params_to_json(const Params& p);
+/// Reads a JSON object; unknown keys and wrong types throw std::invalid_argument naming the key.
+Params params_from_json(const std::string& json_text, const Params& base = {});
+
+}  // namespace fe

@@ -1,0 +1,46 @@
+// What an extraction returns (issue 2, "Result per found instance").
+#pragma once
+
+#include "featureextract/params.h"
+
+#include <Eigen/Core>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace fe {
+
+struct Match {
+  Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< H: reference -> target, h44 = 1
+  double score = 0;       ///< fraction of mapped reference samples lying on the target, in [0, 1]
+  double max_error = 0;   ///< max distance of mapped reference key points to the target surface
+  double rms_error = 0;   ///< RMS distance of mapped reference dense samples to the target surface
+  double scale = 1;       ///< cube root of the volume ratio of the linear part of H
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< center of the matched target region
+  Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bbox_max = Eigen::Vector3d::Zero();
+  std::vector<int> faces;      ///< 1-based target FaceN covered by the mapped reference (B-rep input)
+  std::vector<int> triangles;  ///< 0-based target triangles covered (mesh input)
+  int pairs = 0;               ///< key point pairs consistent with H
+};
+
+struct ShapeStats {
+  std::size_t triangles = 0, faces = 0, dense_points = 0, sparse_points = 0, key_points = 0,
+              descriptors = 0, dropped_degenerate = 0;
+  double diagonal = 0;
+};
+
+struct Result {
+  std::vector<Match> matches;
+  ShapeStats reference, target;
+  double feature_size = 0;  ///< L: reference bounding-box diagonal, unit of relative parameters
+  std::size_t pairs_shot = 0, pairs_ss = 0, clusters = 0;
+  std::vector<std::pair<std::string, double>> timings;  ///< stage -> seconds, in order
+  std::vector<std::string> warnings;
+  Params params;
+};
+
+/// The JSON document of the CLI contract (README, "Result JSON").
+std::string result_to_json(const Result& r, int indent = 2);
+
+}  // namespace fe

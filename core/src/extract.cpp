@@ -1,0 +1,696 @@
+// The pipeline of Takashima & Kanai, section 3: describe() is steps 1-3, match() steps 4-6.
+#include "featureextract/extract.h"
+
+#include "featureextract/geometry.h"
+#include "kdtree.h"
+#include "pairing.h"
+#include "shot.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace fe {
+
+struct ShapeDescription::Impl {
+  Role role = Role::Target;
+  double L = 0;          // feature size (reference diagonal)
+  Params params;
+  double dense_h = 0, sparse_h = 0;
+  Samples dense;
+  Points dense_normals;  // PCA normals of the dense samples
+  std::shared_ptr<KdTree3> dense_tree;
+  Points keys, key_normals;
+  Eigen::VectorXd key_si;
+  ShotSet shot;
+  int m = 0, D = 0, U = 0;  // radii per descriptor; target ladder steps below / above
+  Eigen::Vector3d box_min, box_max;
+  ShapeStats stats;
+  std::vector<std::pair<std::string, double>> timings;
+  std::vector<std::string> warnings;
+};
+
+ShapeStats ShapeDescription::stats() const { return impl_ ? impl_->stats : ShapeStats{}; }
+double ShapeDescription::feature_size() const { return impl_ ? impl_->L : 0.0; }
+ShapeDescription::Role ShapeDescription::role() const { return impl_ ? impl_->role : Role::Target; }
+std::vector<std::pair<std::string, double>> ShapeDescription::timings() const { return impl_ ? impl_->timings : decltype(impl_->timings){}; }
+std::vector<std::string> ShapeDescription::warnings() const { return impl_ ? impl_->warnings : std::vector<std::string>{}; }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Stopwatch {
+  Clock::time_point t0 = Clock::now();
+  double lap() {
+    const auto t = Clock::now();
+    const double s = std::chrono::duration<double>(t - t0).count();
+    t0 = t;
+    return s;
+  }
+};
+
+void report(const ProgressFn& progress, const std::string& stage, double f) {
+  if (progress && !progress(stage, std::min(1.0, std::max(0.0, f)))) throw Cancelled();
+}
+
+void set_threads(const Params& p) {
+#ifdef _OPENMP
+  if (p.threads > 0) omp_set_num_threads(p.threads);
+#endif
+}
+
+double mesh_area(const TriangleMesh& m) {
+  double a = 0;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const Eigen::Vector3d p = m.vertices.row(m.triangles(t, 0)), q = m.vertices.row(m.triangles(t, 1)),
+                          r = m.vertices.row(m.triangles(t, 2));
+    a += 0.5 * (q - p).cross(r - p).norm();
+  }
+  return a;
+}
+
+int ladder_steps(double scale, double ratio) {
+  return std::max(0, static_cast<int>(std::ceil(std::log(scale) / std::log(ratio) - 1e-9)));
+}
+
+}  // namespace
+
+ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
+                          const ProgressFn& progress) {
+  p.validate();
+  set_threads(p);
+  if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("describe: feature size must be > 0");
+  auto d = std::make_shared<ShapeDescription::Impl>();
+  d->role = role;
+  d->L = L;
+  d->params = p;
+  const bool is_ref = role == ShapeDescription::Role::Reference;
+  const std::string who = is_ref ? "reference" : "target";
+  const std::string& name = mesh.source.empty() ? who : mesh.source;
+  Stopwatch sw;
+
+  // Step 1: dense and sparse samples.
+  report(progress, who + ": sampling", 0);
+  d->dense_h = p.dense_spacing * L;
+  d->sparse_h = p.sparse_spacing * L;
+  const double area = mesh_area(mesh);
+  const double expected = area / (d->dense_h * d->dense_h);
+  if (expected > static_cast<double>(p.max_dense_points)) {
+    const double f = std::sqrt(expected / static_cast<double>(p.max_dense_points));
+    d->dense_h *= f;
+    d->sparse_h = std::max(d->sparse_h, 2.5 * d->dense_h);
+    std::ostringstream w;
+    w << name << ": surface too large for the dense spacing (" << static_cast<long long>(expected)
+      << " samples > max_dense_points); spacing increased " << f << "x, small features may be missed";
+    d->warnings.push_back(w.str());
+  }
+  d->dense = sample_surface(mesh, d->dense_h, p.seed);
+  const Samples sparse = sample_surface(mesh, d->sparse_h, p.seed + 1);
+  d->box_min = mesh.vertices.colwise().minCoeff();
+  d->box_max = mesh.vertices.colwise().maxCoeff();
+  d->timings.push_back({who + "_sampling", sw.lap()});
+
+  // Step 2a: normals (PCA over dense samples, oriented by the triangles).
+  report(progress, who + ": normals", 0);
+  const double rn = p.normal_radius * L;
+  d->dense_normals = estimate_normals(d->dense, d->dense, rn);
+  const Points sparse_normals = estimate_normals(d->dense, sparse, rn);
+  d->timings.push_back({who + "_normals", sw.lap()});
+
+  // Step 2b + 3: shape index at sparse samples, key points.
+  report(progress, who + ": shape index", 0);
+  const Eigen::MatrixX2d k = principal_curvatures(d->dense.points, d->dense_normals, sparse.points, sparse_normals, p.curvature_radius * L);
+  std::vector<Eigen::Index> key;
+  std::vector<double> key_si;
+  for (Eigen::Index i = 0; i < k.rows(); ++i) {
+    const double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
+    if (is_key_shape_index(si, p.si_band)) {
+      key.push_back(i);
+      key_si.push_back(si);
+    }
+  }
+  d->timings.push_back({who + "_shape_index", sw.lap()});
+
+  // Step 2c: multi-radius SHOT at key points, dense samples as support.
+  d->m = p.shot_radii;
+  if (!is_ref) {
+    d->D = ladder_steps(1.0 / p.scale_min, p.shot_radius_ratio);
+    d->U = ladder_steps(p.scale_max, p.shot_radius_ratio);
+  }
+  std::vector<double> radii;
+  for (int r = -d->D; r < d->m + d->U; ++r) radii.push_back(p.shot_radius * L * std::pow(p.shot_radius_ratio, r));
+  Points keys(static_cast<Eigen::Index>(key.size()), 3), key_n(static_cast<Eigen::Index>(key.size()), 3);
+  for (std::size_t i = 0; i < key.size(); ++i) {
+    keys.row(static_cast<Eigen::Index>(i)) = sparse.points.row(key[i]);
+    key_n.row(static_cast<Eigen::Index>(i)) = sparse_normals.row(key[i]);
+  }
+  report(progress, who + ": SHOT descriptors", 0);
+  ShotSet shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, radii, p.threads, [&](std::size_t r) {
+    return !progress || progress(who + ": SHOT descriptors", static_cast<double>(r + 1) / static_cast<double>(radii.size()));
+  });
+  // Drop key points without any finite descriptor (paper: non-finite descriptors are not matched).
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < keys.rows(); ++i)
+    if (shot.valid.row(i).any()) keep.push_back(i);
+  d->keys.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  d->key_normals.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  d->key_si.resize(static_cast<Eigen::Index>(keep.size()));
+  d->shot.desc.resize(static_cast<Eigen::Index>(keep.size()), shot.desc.cols());
+  d->shot.valid.resize(static_cast<Eigen::Index>(keep.size()), shot.valid.cols());
+  d->shot.lrf.resize(static_cast<Eigen::Index>(keep.size()), shot.lrf.cols());
+  for (std::size_t a = 0; a < keep.size(); ++a) {
+    const Eigen::Index i = keep[a], r = static_cast<Eigen::Index>(a);
+    d->keys.row(r) = keys.row(i);
+    d->key_normals.row(r) = key_n.row(i);
+    d->key_si(r) = key_si[static_cast<std::size_t>(i)];
+    d->shot.desc.row(r) = shot.desc.row(i);
+    d->shot.valid.row(r) = shot.valid.row(i);
+    d->shot.lrf.row(r) = shot.lrf.row(i);
+  }
+  d->timings.push_back({who + "_shot", sw.lap()});
+  d->dense_tree = std::make_shared<KdTree3>(d->dense.points);
+
+  ShapeStats& s = d->stats;
+  s.triangles = static_cast<std::size_t>(mesh.triangles.rows());
+  s.faces = static_cast<std::size_t>(mesh.num_faces);
+  s.dense_points = d->dense.size();
+  s.sparse_points = sparse.size();
+  s.key_points = key.size();
+  s.descriptors = keep.size();
+  s.dropped_degenerate = mesh.dropped_degenerate;
+  s.diagonal = mesh.diagonal();
+
+  if (is_ref) {
+    int full = 0;
+    for (Eigen::Index i = 0; i < d->shot.valid.rows(); ++i) full += d->shot.valid.row(i).head(d->m).all() ? 1 : 0;
+    if (full < 5) {
+      std::ostringstream e;
+      e << name << ": reference has no distinctive key points (" << full
+        << " with descriptors, need 5): it is planar, or only ridges and ruts; pick a feature with corners, caps or saddles";
+      throw InputError(e.str());
+    }
+  }
+  return ShapeDescription(d);
+}
+
+namespace {
+
+// Distance from p to the sampled surface: point-to-plane at the nearest dense sample, with the
+// tangential offset beyond one sample spacing added back (so points off the edge of a surface count).
+double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int* nearest = nullptr) {
+  double d2;
+  const int j = t.dense_tree->nearest(p, &d2);
+  if (nearest) *nearest = j;
+  if (j < 0 || !std::isfinite(d2)) return INFINITY;
+  const Eigen::Vector3d q = t.dense.points.row(j), n = t.dense_normals.row(j);
+  const double dn = std::abs((p - q).dot(n));
+  const double dt = std::sqrt(std::max(0.0, d2 - dn * dn));
+  const double over = std::max(0.0, dt - t.dense_h);
+  return std::sqrt(dn * dn + over * over);
+}
+
+Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
+  const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
+  const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
+  const double w = g.dot(p) + H(3, 3);
+  const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
+  return (A - f * g.transpose()) / w;
+}
+
+struct Instance {
+  Match match;
+  std::vector<int> covered;  // target dense samples covered, sorted
+};
+
+// Deterministic subsample of at most n row indices.
+std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n) {
+  std::vector<Eigen::Index> r;
+  const double step = std::max(1.0, static_cast<double>(rows) / static_cast<double>(n));
+  for (double x = 0; x < static_cast<double>(rows); x += step) r.push_back(static_cast<Eigen::Index>(x));
+  return r;
+}
+
+}  // namespace
+
+Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const TriangleMesh& tmesh, const Params& p,
+             const ProgressFn& progress) {
+  if (refd.empty() || tgtd.empty()) throw std::invalid_argument("match: empty description");
+  const auto& R = refd.impl();
+  const auto& T = tgtd.impl();
+  if (R.role != ShapeDescription::Role::Reference || T.role != ShapeDescription::Role::Target)
+    throw std::invalid_argument("match: descriptions have the wrong roles");
+  if (std::abs(R.L - T.L) > 1e-9 * R.L || R.m != T.m || R.params.shot_radius != T.params.shot_radius ||
+      R.params.shot_radius_ratio != T.params.shot_radius_ratio)
+    throw std::invalid_argument("match: the target was described for another feature size or SHOT radii; describe it again");
+  p.validate();
+  set_threads(p);
+  const double L = R.L;
+  Stopwatch sw;
+  Result res;
+  res.params = p;
+  res.feature_size = L;
+  res.reference = R.stats;
+  res.target = T.stats;
+  res.timings = R.timings;
+  res.timings.insert(res.timings.end(), T.timings.begin(), T.timings.end());
+  res.warnings = R.warnings;
+  res.warnings.insert(res.warnings.end(), T.warnings.begin(), T.warnings.end());
+
+  // Step 4: C_SHOT, C_SI, C_SS.
+  report(progress, "pairs", 0);
+  const std::vector<KeyPointPair> cshot = shot_pairs(R.shot, T.shot, R.m, T.D, T.U, p.shot_neighbours,
+                                                     [&](double f) { return !progress || progress("pairs", 0.9 * f); });
+  const auto csi = si_pairs(R.key_si, T.key_si, p.si_neighbours);
+  const std::vector<KeyPointPair> css = filter_by_shape_index(cshot, R.keys, T.keys, csi, p.pair_distance * L,
+                                                              p.pair_distance * L, p.shot_radius_ratio);
+  res.pairs_shot = cshot.size();
+  res.pairs_ss = css.size();
+  res.timings.push_back({"pairs", sw.lap()});
+
+  // Step 5: Euclidean clusters of the paired target key points.
+  report(progress, "clusters", 0);
+  std::vector<int> tkeys;
+  for (const auto& c : css) tkeys.push_back(c.tgt);
+  std::sort(tkeys.begin(), tkeys.end());
+  tkeys.erase(std::unique(tkeys.begin(), tkeys.end()), tkeys.end());
+  Points tk(static_cast<Eigen::Index>(tkeys.size()), 3);
+  for (std::size_t i = 0; i < tkeys.size(); ++i) tk.row(static_cast<Eigen::Index>(i)) = T.keys.row(tkeys[i]);
+  const auto groups = euclidean_clusters(tk, p.cluster_tolerance * L);
+  std::vector<int> cluster_of(static_cast<std::size_t>(T.keys.rows()), -1);
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    for (int i : groups[g]) cluster_of[static_cast<std::size_t>(tkeys[static_cast<std::size_t>(i)])] = static_cast<int>(g);
+  std::vector<std::vector<KeyPointPair>> cluster_pairs(groups.size());
+  for (const auto& c : css) cluster_pairs[static_cast<std::size_t>(cluster_of[static_cast<std::size_t>(c.tgt)])].push_back(c);
+  std::vector<std::size_t> order;
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    if (static_cast<int>(cluster_pairs[g].size()) >= p.min_cluster_pairs) order.push_back(g);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cluster_pairs[a].size() > cluster_pairs[b].size(); });
+  res.clusters = order.size();
+  res.timings.push_back({"clusters", sw.lap()});
+
+  if (const char* dump = std::getenv("FE_DEBUG_PAIRS")) {
+    FILE* f = std::fopen(dump, "w");
+    for (std::size_t g = 0; g < cluster_pairs.size(); ++g)
+      for (const auto& c : cluster_pairs[g])
+        std::fprintf(f, "%zu %d %d %d %.4f %.4f %.4f %.4f %.4f %.4f %.4f %.3f %.3f\n", g, c.ref, c.tgt, c.shift, c.distance,
+                     R.keys(c.ref, 0), R.keys(c.ref, 1), R.keys(c.ref, 2), T.keys(c.tgt, 0), T.keys(c.tgt, 1), T.keys(c.tgt, 2),
+                     R.key_si(c.ref), T.key_si(c.tgt));
+    std::fclose(f);
+  }
+  // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds.
+  // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
+  // reference's dense samples, so that a transform must lay the whole feature on the target, not only
+  // its corners; each with its normal, which must agree with the target's.
+  Points eval_pts, eval_nrm;
+  {
+    const std::vector<Eigen::Index> kr = stride_rows(R.keys.rows(), 300);
+    const std::vector<Eigen::Index> dr = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 300);
+    eval_pts.resize(static_cast<Eigen::Index>(kr.size() + dr.size()), 3);
+    eval_nrm.resize(eval_pts.rows(), 3);
+    Eigen::Index k = 0;
+    for (Eigen::Index i : kr) { eval_pts.row(k) = R.keys.row(i); eval_nrm.row(k++) = R.key_normals.row(i); }
+    for (Eigen::Index i : dr) { eval_pts.row(k) = R.dense.points.row(i); eval_nrm.row(k++) = R.dense_normals.row(i); }
+  }
+  const double normal_penalty = 2.0 * p.accept_error * L;
+  Points refine_pts, refine_nrm;
+  {
+    const std::vector<Eigen::Index> dr = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 800);
+    refine_pts.resize(static_cast<Eigen::Index>(dr.size()), 3);
+    refine_nrm.resize(refine_pts.rows(), 3);
+    for (std::size_t k = 0; k < dr.size(); ++k) {
+      refine_pts.row(static_cast<Eigen::Index>(k)) = R.dense.points.row(dr[k]);
+      refine_nrm.row(static_cast<Eigen::Index>(k)) = R.dense_normals.row(dr[k]);
+    }
+  }
+  const std::vector<Eigen::Index> dense_rows = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 1500);
+  const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
+  double best_cost_now = INFINITY;  // for early exit inside the cost while a RANSAC runs
+
+  static long dbg_counts[8] = {0};
+  auto bounds_ok = [&](const Eigen::Matrix4d& H, double* scale) {
+    const Deformation df = deformation(H, rlo, rhi);
+    if (std::getenv("FE_DEBUG")) {
+      ++dbg_counts[0];
+      if (df.reflection) ++dbg_counts[1];
+      if (df.volume_ratio < p.volume_ratio_min || df.volume_ratio > p.volume_ratio_max) ++dbg_counts[2];
+      if (df.scale_min < p.axis_scale_min || df.scale_max > p.axis_scale_max) ++dbg_counts[3];
+      if (df.scale_max > p.max_anisotropy * df.scale_min) ++dbg_counts[4];
+      if (df.perspective > p.max_perspective) ++dbg_counts[5];
+    }
+    if (!(df.volume_ratio > 0) || !std::isfinite(df.perspective)) return false;
+    if (df.reflection && !p.allow_reflection) return false;
+    if (df.volume_ratio < p.volume_ratio_min || df.volume_ratio > p.volume_ratio_max) return false;
+    if (df.scale_min < p.axis_scale_min || df.scale_max > p.axis_scale_max) return false;
+    if (df.scale_max > p.max_anisotropy * df.scale_min) return false;
+    if (df.perspective > p.max_perspective) return false;
+    if (scale) *scale = std::cbrt(df.volume_ratio);
+    return true;
+  };
+  // Paper 3.8 (4)-(5): map the reference key points, error to the nearest dense target point;
+  // the error of H is the maximum (or error_quantile) over them, divided by the scale of H.
+  std::vector<double> errs;
+  // Per-point errors of H on the evaluation points, in reference units (divided by the scale of H):
+  // distance to the target surface, or at least `normal_penalty` where the normals disagree.
+  auto point_errors = [&](const Eigen::Matrix4d& H, double s, double sum_limit) -> bool {
+    errs.clear();
+    double sum = 0;
+    for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) {
+      const Eigen::Vector3d x = eval_pts.row(i);
+      int j;
+      double e = surface_distance(T, apply_transform(H, x), &j) / s;
+      if (!std::isfinite(e) || j < 0) return false;
+      if ((jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
+        e = std::max(e, normal_penalty);
+      errs.push_back(e);
+      sum += std::min(e, normal_penalty);
+      if (sum > sum_limit) return false;  // cannot beat the best any more
+    }
+    return true;
+  };
+  // Selection cost (RANSAC, refinement): mean error truncated at the penalty (MSAC), continuous so
+  // that a refinement can see progress where a quantile would sit on the penalty.
+  auto cost = [&](const Eigen::Matrix4d& H) -> double {
+    double s;
+    if (!bounds_ok(H, &s)) return INFINITY;
+    const double limit = std::isfinite(best_cost_now) ? best_cost_now * static_cast<double>(eval_pts.rows()) : INFINITY;
+    if (!point_errors(H, s, limit)) return INFINITY;
+    double sum = 0;
+    for (double e : errs) sum += std::min(e, normal_penalty);
+    return sum / static_cast<double>(errs.size());
+  };
+  // Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile).
+  auto quantile_error = [&](const Eigen::Matrix4d& H) -> double {
+    double s;
+    if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY)) return INFINITY;
+    const std::size_t q = std::min(errs.size() - 1, static_cast<std::size_t>(p.error_quantile * static_cast<double>(errs.size())));
+    std::nth_element(errs.begin(), errs.begin() + static_cast<long>(q), errs.end());
+    return errs[q];
+  };
+
+  if (const char* gt = std::getenv("FE_DEBUG_T")) {  // cost of a pure translation, for debugging
+    Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+    std::sscanf(gt, "%lf %lf %lf", &H(0, 3), &H(1, 3), &H(2, 3));
+    best_cost_now = INFINITY;
+    std::fprintf(stderr, "debug: translation cost %.4f quantile/L %.4f\n", cost(H), quantile_error(H) / L);
+    for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) {
+      const Eigen::Vector3d x = eval_pts.row(i);
+      int j;
+      const double e = surface_distance(T, apply_transform(H, x), &j);
+      const double dot = eval_nrm.row(i).dot(T.dense_normals.row(j));
+      if (dot < 0.5 || e > 1)
+        std::fprintf(stderr, "  pt %ld (%.2f %.2f %.2f) n (%.2f %.2f %.2f) e %.3f tn (%.2f %.2f %.2f) dot %.2f\n", (long)i, x.x(), x.y(), x.z(),
+                     eval_nrm(i, 0), eval_nrm(i, 1), eval_nrm(i, 2), e, T.dense_normals(j, 0), T.dense_normals(j, 1), T.dense_normals(j, 2), dot);
+    }
+  }
+  std::vector<Instance> found;
+  std::uint64_t run = 0;
+  for (std::size_t oi = 0; oi < order.size(); ++oi) {
+    std::vector<KeyPointPair> pairs = cluster_pairs[order[oi]];
+    int failures = 0;
+    while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures && found.size() < 500) {
+      report(progress, "ransac", static_cast<double>(oi) / static_cast<double>(order.size()));
+      Points rp(static_cast<Eigen::Index>(pairs.size()), 3), tp(static_cast<Eigen::Index>(pairs.size()), 3);
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(pairs[i].ref);
+        tp.row(static_cast<Eigen::Index>(i)) = T.keys.row(pairs[i].tgt);
+      }
+      // Rotation of each pair from the SHOT local reference frames at the middle radius compared.
+      std::vector<Eigen::Matrix3d> rots(pairs.size());
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        const int mid = R.m / 2;
+        const Eigen::Matrix3d fr = R.shot.frame(pairs[i].ref, mid);
+        const Eigen::Matrix3d ft = T.shot.frame(pairs[i].tgt, pairs[i].shift + T.D + mid);
+        rots[i] = ft.transpose() * fr;
+      }
+      std::vector<double> scales(pairs.size());
+      for (std::size_t i = 0; i < pairs.size(); ++i) scales[i] = std::pow(p.shot_radius_ratio, pairs[i].shift);
+      RansacOptions ro;
+      ro.rotations = &rots;
+      ro.scales = &scales;
+      ro.affine_only = std::getenv("FE_AFFINE") != nullptr;
+      ro.max_iterations = p.ransac_max_iterations;
+      ro.patience = p.ransac_patience;
+      ro.locality = 1.5 * L;  // times the first pair's scale estimate
+      ro.ratio_min = 0.8 * p.axis_scale_min;  // slack for key points that sit a sample spacing off
+      ro.ratio_max = 1.25 * p.axis_scale_max;
+      ro.seed = p.seed * 1000003ULL + (++run);
+      best_cost_now = INFINITY;
+      const std::function<double(const Eigen::Matrix4d&)> costfn = [&](const Eigen::Matrix4d& H) {
+        const double c = cost(H);
+        if (c < best_cost_now) best_cost_now = c;
+        return c;
+      };
+      RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size())); });
+      if (progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size()))) throw Cancelled();
+      if (!rr.found) {
+        if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations) solved %ld refl %ld vol %ld axis %ld aniso %ld persp %ld\n", order[oi], pairs.size(), rr.iterations, dbg_counts[0], dbg_counts[1], dbg_counts[2], dbg_counts[3], dbg_counts[4], dbg_counts[5]);
+        break;
+      }
+      Eigen::Matrix4d H = rr.H;
+      double s = 1;
+      bounds_ok(H, &s);
+      // Least-squares refit on the pairs consistent with H (keeps it only if the error does not grow).
+      {
+        const double tol = p.accept_error * L * s;
+        std::vector<Eigen::Index> in;
+        for (Eigen::Index i = 0; i < rp.rows(); ++i)
+          if ((apply_transform(H, rp.row(i).transpose()) - tp.row(i).transpose()).norm() <= tol) in.push_back(i);
+        if (in.size() >= 6) {
+          Points a(static_cast<Eigen::Index>(in.size()), 3), b(static_cast<Eigen::Index>(in.size()), 3);
+          for (std::size_t k = 0; k < in.size(); ++k) {
+            a.row(static_cast<Eigen::Index>(k)) = rp.row(in[k]);
+            b.row(static_cast<Eigen::Index>(k)) = tp.row(in[k]);
+          }
+          Eigen::Matrix4d H2;
+          best_cost_now = INFINITY;
+          if (fit_projective(a, b, H2) && cost(H2) <= rr.cost) {
+            H = H2;
+            bounds_ok(H, &s);
+          }
+        }
+      }
+      // Surface refinement (ICP-like): reference dense samples -> foot points on the target's tangent
+      // planes, trimmed, projective least squares (affine if that leaves the bounds); kept while the
+      // error decreases.
+      {
+        best_cost_now = INFINITY;
+        double c0 = cost(H);
+        const double search_radius = 0.25 * L;
+        std::vector<int> near_idx;
+        std::vector<float> near_d2;
+        for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
+          std::vector<Eigen::Vector3d> a, b;
+          std::vector<double> e;
+          for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
+            const Eigen::Vector3d x = refine_pts.row(k);
+            const Eigen::Vector3d y = apply_transform(H, x);
+            // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
+            // faces instead of being dropped, and pull the fit out to full length)
+            const Eigen::Vector3d nm = (jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
+            double d2;
+            int j = T.dense_tree->nearest(y, &d2);
+            if (j < 0) continue;
+            if (nm.dot(T.dense_normals.row(j)) < 0.5) {
+              T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
+              j = -1;
+              d2 = INFINITY;
+              for (std::size_t c = 0; c < near_idx.size(); ++c)
+                if (near_d2[c] < d2 && nm.dot(T.dense_normals.row(near_idx[c])) >= 0.5) { j = near_idx[c]; d2 = near_d2[c]; }
+              if (j < 0) continue;
+            }
+            const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
+            a.push_back(x);
+            b.push_back(y - (y - q).dot(n) * n);
+            e.push_back(std::sqrt(d2));
+          }
+          if (a.size() < 20) break;
+          std::vector<double> sorted = e;
+          std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+          const double cut = std::max(3.0 * sorted[sorted.size() / 2], 2.0 * T.dense_h);
+          Points A(static_cast<Eigen::Index>(a.size()), 3), B(static_cast<Eigen::Index>(a.size()), 3);
+          Eigen::Index n = 0;
+          for (std::size_t k = 0; k < a.size(); ++k)
+            if (e[k] <= cut) { A.row(n) = a[k]; B.row(n++) = b[k]; }
+          A.conservativeResize(n, 3);
+          B.conservativeResize(n, 3);
+          Eigen::Matrix4d H2;
+          bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
+          if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
+          if (!ok) break;
+          best_cost_now = INFINITY;
+          const double c1 = cost(H2);
+          if (!(c1 < c0)) break;
+          H = H2;
+          c0 = c1;
+        }
+        bounds_ok(H, &s);
+      }
+      const double err = quantile_error(H);
+      const double tol = p.accept_error * L * s;
+      // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.
+      Points mapped(static_cast<Eigen::Index>(dense_rows.size()), 3);
+      int on = 0;
+      double sq = 0;
+      for (std::size_t k = 0; k < dense_rows.size(); ++k) {
+        const Eigen::Vector3d x = R.dense.points.row(dense_rows[k]);
+        const Eigen::Vector3d y = apply_transform(H, x);
+        mapped.row(static_cast<Eigen::Index>(k)) = y;
+        int j;
+        const double e = surface_distance(T, y, &j);
+        sq += std::isfinite(e) ? e * e : tol * tol * 100;
+        if (j < 0 || !(e <= tol)) continue;
+        const Eigen::Vector3d nr = R.dense_normals.row(dense_rows[k]);
+        const Eigen::Vector3d nm = jacobian(H, x).inverse().transpose() * nr;
+        if (nm.normalized().dot(T.dense_normals.row(j)) > 0.5) ++on;
+      }
+      const double score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows.size()));
+      const bool accepted = err <= p.accept_error * L && score >= p.min_score;
+      if (std::getenv("FE_DEBUG")) {
+        const Deformation df = deformation(H, rlo, rhi);
+        const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
+        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",
+                     order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, df.volume_ratio, df.scale_min, df.scale_max,
+                     df.perspective, rr.iterations, accepted ? "accepted" : "rejected");
+        const Eigen::Vector3d rc = 0.5 * (rlo + rhi);
+        const Eigen::Matrix3d J = jacobian(H, rc);
+        const Eigen::Vector3d m = apply_transform(H, rc);
+        std::fprintf(stderr, "   ref center -> (%.1f %.1f %.1f)  J = [%.2f %.2f %.2f; %.2f %.2f %.2f; %.2f %.2f %.2f]\n", m.x(), m.y(), m.z(),
+                     J(0, 0), J(0, 1), J(0, 2), J(1, 0), J(1, 1), J(1, 2), J(2, 0), J(2, 1), J(2, 2));
+      }
+      // Pairs whose target point this hypothesis explains are removed either way; on rejection only
+      // those around its sample, so the next search looks elsewhere.
+      KdTree3 mtree(mapped);
+      const double reach = accepted ? std::max(2 * tol, 2 * T.sparse_h) : 0.25 * L * s;
+      std::vector<KeyPointPair> rest;
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        bool drop;
+        if (accepted) {
+          double d2;
+          mtree.nearest(T.keys.row(pairs[i].tgt).transpose(), &d2);
+          drop = std::sqrt(d2) <= reach;
+        } else {
+          drop = false;
+          for (int si : rr.sample) drop = drop || (tp.row(static_cast<Eigen::Index>(i)) - tp.row(si)).norm() <= reach;
+        }
+        if (!drop) rest.push_back(pairs[i]);
+      }
+      if (rest.size() == pairs.size()) break;  // no progress possible
+      const std::size_t explained = pairs.size() - rest.size();
+      pairs.swap(rest);
+      if (!accepted) {
+        ++failures;
+        continue;
+      }
+      failures = 0;
+      Instance inst;
+      Match& mt = inst.match;
+      mt.transform = H;
+      mt.score = score;
+      mt.max_error = err * s;
+      mt.rms_error = std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows.size())));
+      mt.scale = s;
+      mt.pairs = static_cast<int>(explained);
+      // Covered target region: dense samples near the mapped reference.
+      const double cov = tol + R.dense_h * s;
+      const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(cov);
+      const Eigen::Vector3d hi = mapped.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(cov);
+      std::vector<int> idx;
+      std::vector<float> dd;
+      for (Eigen::Index j = 0; j < T.dense.points.rows(); ++j) {
+        const Eigen::Vector3d q = T.dense.points.row(j);
+        if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
+        double d2;
+        mtree.nearest(q, &d2);
+        if (std::sqrt(d2) <= cov) inst.covered.push_back(static_cast<int>(j));
+      }
+      if (inst.covered.empty()) continue;
+      Eigen::Vector3d c = Eigen::Vector3d::Zero(), bmin = Eigen::Vector3d::Constant(INFINITY), bmax = -bmin;
+      for (int j : inst.covered) {
+        const Eigen::Vector3d q = T.dense.points.row(j);
+        c += q;
+        bmin = bmin.cwiseMin(q);
+        bmax = bmax.cwiseMax(q);
+      }
+      mt.center = c / static_cast<double>(inst.covered.size());
+      mt.bbox_min = bmin;
+      mt.bbox_max = bmax;
+      // Faces and triangles: covered area per face (triangle centroids near the mapped reference).
+      std::vector<double> face_area(static_cast<std::size_t>(tmesh.num_faces + 1), 0.0), face_cov(face_area.size(), 0.0);
+      for (Eigen::Index t = 0; t < tmesh.triangles.rows(); ++t) {
+        const Eigen::Vector3d a = tmesh.vertices.row(tmesh.triangles(t, 0)), b = tmesh.vertices.row(tmesh.triangles(t, 1)),
+                              e = tmesh.vertices.row(tmesh.triangles(t, 2));
+        const double area = 0.5 * (b - a).cross(e - a).norm();
+        const int f = tmesh.face_ids.size() ? tmesh.face_ids(t) : 0;
+        if (f > 0 && f <= tmesh.num_faces) face_area[static_cast<std::size_t>(f)] += area;
+        const Eigen::Vector3d g = (a + b + e) / 3.0;
+        if ((g.array() < lo.array()).any() || (g.array() > hi.array()).any()) continue;
+        double d2;
+        mtree.nearest(g, &d2);
+        if (std::sqrt(d2) > cov) continue;
+        if (f > 0 && f <= tmesh.num_faces) face_cov[static_cast<std::size_t>(f)] += area;
+        if (!tmesh.from_brep()) mt.triangles.push_back(static_cast<int>(t));
+      }
+      for (int f = 1; f <= tmesh.num_faces; ++f)
+        if (face_area[static_cast<std::size_t>(f)] > 0 &&
+            face_cov[static_cast<std::size_t>(f)] >= p.face_coverage * face_area[static_cast<std::size_t>(f)])
+          mt.faces.push_back(f);
+      found.push_back(std::move(inst));
+    }
+  }
+  res.timings.push_back({"ransac", sw.lap()});
+
+  // Each instance once: the better-scoring of two overlapping instances wins.
+  report(progress, "result", 0);
+  std::stable_sort(found.begin(), found.end(), [](const Instance& a, const Instance& b) { return a.match.score > b.match.score; });
+  std::vector<const Instance*> kept;
+  for (const Instance& f : found) {
+    bool dup = false;
+    for (const Instance* k : kept) {
+      std::vector<int> both;
+      std::set_intersection(f.covered.begin(), f.covered.end(), k->covered.begin(), k->covered.end(), std::back_inserter(both));
+      const double denom = static_cast<double>(std::min(f.covered.size(), k->covered.size()));
+      dup = dup || static_cast<double>(both.size()) > p.max_overlap * denom;
+    }
+    if (!dup) kept.push_back(&f);
+  }
+  for (const Instance* k : kept) res.matches.push_back(k->match);
+  // Stable order for the user: by position (x, then y, then z).
+  std::sort(res.matches.begin(), res.matches.end(), [](const Match& a, const Match& b) {
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(a.center[i] - b.center[i]) > 1e-9) return a.center[i] < b.center[i];
+    return false;
+  });
+  res.timings.push_back({"result", sw.lap()});
+  report(progress, "done", 1);
+  return res;
+}
+
+Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params, const ProgressFn& progress) {
+  params.validate();
+  const double L = reference.diagonal();
+  const double Lt = target.diagonal();
+  if (!(L > 0)) throw InputError((reference.source.empty() ? "reference" : reference.source) + ": reference has zero size");
+  if (L * params.scale_min > Lt * 1.0001) {
+    std::ostringstream e;
+    e << (reference.source.empty() ? "reference" : reference.source) << ": reference (diagonal " << L
+      << ") is larger than the target " << (target.source.empty() ? "" : target.source) << " (diagonal " << Lt
+      << ") even at the smallest scale searched (scale_min " << params.scale_min << ")";
+    throw InputError(e.str());
+  }
+  const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+  const ShapeDescription t = describe(target, ShapeDescription::Role::Target, L, params, progress);
+  return match(r, t, target, params, progress);
+}
+
+}  // namespace fe

@@ -1,0 +1,160 @@
+// The documented parameter table: one row per Params field, used for --help, JSON and bindings.
+#include "featureextract/params.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <variant>
+
+namespace fe {
+
+namespace {
+
+static_assert(std::is_same_v<std::size_t, std::uint64_t>, "size_t parameters are stored as uint64");
+using Ptr = std::variant<double Params::*, int Params::*, bool Params::*, std::uint64_t Params::*>;
+struct Entry {
+  const char* name;
+  Ptr ptr;
+  const char* unit;
+  const char* help;
+  double lo, hi;  // valid range (inclusive)
+};
+
+const std::vector<Entry>& entries() {
+  static const std::vector<Entry> e = {
+      {"seed", &Params::seed, "", "seed of sampling and RANSAC; same input and seed give the same output", 0, 1.8e19},
+      {"threads", &Params::threads, "count", "worker threads for SHOT descriptors; 0 = all cores", 0, 1024},
+      {"dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
+      {"sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
+      {"max_dense_points", &Params::max_dense_points, "count", "cap on dense samples per shape; spacing grows beyond it", 1000, 5e7},
+      {"normal_radius", &Params::normal_radius, "x L", "support radius of PCA normals", 1e-4, 0.5},
+      {"curvature_radius", &Params::curvature_radius, "x L", "support radius of the quadric fit for principal curvatures", 1e-4, 0.5},
+      {"planar_curvedness", &Params::planar_curvedness, "1/L", "curvedness x L below which a point is planar (shape index -1)", 0, 1e6},
+      {"shot_radius", &Params::shot_radius, "x L", "smallest SHOT support radius", 1e-3, 2},
+      {"shot_radii", &Params::shot_radii, "count", "SHOT radii per descriptor (multi-radius SHOT)", 1, 8},
+      {"shot_radius_ratio", &Params::shot_radius_ratio, "", "ratio of consecutive SHOT radii; also the step of the scale search", 1.05, 3},
+      {"scale_min", &Params::scale_min, "", "smallest target/reference scale searched by SHOT radius shifts", 0.1, 1},
+      {"scale_max", &Params::scale_max, "", "largest target/reference scale searched by SHOT radius shifts", 1, 10},
+      {"si_band", &Params::si_band, "", "half-width of the rut (0.25) and ridge (0.75) shape-index bands that are not key points", 0, 0.25},
+      {"shot_neighbours", &Params::shot_neighbours, "count", "N: nearest reference key points in SHOT space per target key point", 1, 100},
+      {"si_neighbours", &Params::si_neighbours, "count", "M: nearest reference key points in shape index per target key point", 1, 1000},
+      {"pair_distance", &Params::pair_distance, "x L", "delta: a SHOT pair is kept if an SI pair lies this close at both ends", 0, 10},
+      {"cluster_tolerance", &Params::cluster_tolerance, "x L", "Euclidean clustering tolerance of paired target key points", 1e-3, 100},
+      {"min_cluster_pairs", &Params::min_cluster_pairs, "count", "clusters with fewer key point pairs are dropped", 5, 1e6},
+      {"ransac_max_iterations", &Params::ransac_max_iterations, "count", "upper bound of RANSAC iterations per instance", 1, 1e7},
+      {"ransac_patience", &Params::ransac_patience, "count", "RANSAC stops after this many iterations without improvement", 1, 1e7},
+      {"refine_iterations", &Params::refine_iterations, "count", "surface refinement (ICP-like) iterations after RANSAC; 0 = the paper's RANSAC result as is", 0, 1000},
+      {"max_failures", &Params::max_failures, "count", "a cluster is given up after this many rejected transforms in a row", 1, 1e4},
+      {"error_quantile", &Params::error_quantile, "", "error of a transform: 1 = maximum over reference key points (paper), <1 = that quantile", 0.5, 1},
+      {"accept_error", &Params::accept_error, "x L x scale", "a transform is accepted if its error is at most this", 1e-4, 10},
+      {"min_score", &Params::min_score, "", "a transform is accepted if this fraction of the mapped reference lies on the target", 0, 1},
+      {"volume_ratio_min", &Params::volume_ratio_min, "", "lower bound of the volume expansion ratio |det J|", 0, 1e6},
+      {"volume_ratio_max", &Params::volume_ratio_max, "", "upper bound of the volume expansion ratio |det J|", 0, 1e6},
+      {"axis_scale_min", &Params::axis_scale_min, "", "lower bound of every principal stretch (singular value of J)", 0, 1e3},
+      {"axis_scale_max", &Params::axis_scale_max, "", "upper bound of every principal stretch (singular value of J)", 0, 1e3},
+      {"max_anisotropy", &Params::max_anisotropy, "", "largest / smallest principal stretch (oblique distortion bound)", 1, 1e3},
+      {"max_perspective", &Params::max_perspective, "", "largest |w - 1| (relative) of H over the reference box", 0, 10},
+      {"allow_reflection", &Params::allow_reflection, "", "accept mirror-image transforms (negative determinant)", 0, 1},
+      {"face_coverage", &Params::face_coverage, "", "a target face is listed if this fraction of its area is covered by the mapped reference", 0, 1},
+      {"max_overlap", &Params::max_overlap, "", "instances sharing more than this fraction of their region are reported once", 0, 1},
+  };
+  return e;
+}
+
+std::string value_string(const Params& p, const Ptr& ptr) {
+  std::ostringstream s;
+  std::visit([&](auto m) {
+    using T = std::decay_t<decltype(p.*m)>;
+    if constexpr (std::is_same_v<T, bool>) s << (p.*m ? "true" : "false");
+    else s << p.*m;
+  }, ptr);
+  return s.str();
+}
+
+double as_double(const Params& p, const Ptr& ptr) {
+  return std::visit([&](auto m) { return static_cast<double>(p.*m); }, ptr);
+}
+
+}  // namespace
+
+const std::vector<ParamInfo>& param_table() {
+  static const std::vector<ParamInfo> table = [] {
+    std::vector<ParamInfo> t;
+    const Params d;
+    for (const Entry& e : entries()) {
+      std::string type = std::visit([](auto m) -> std::string {
+        using T = std::decay_t<decltype(Params{}.*m)>;
+        if constexpr (std::is_same_v<T, bool>) return "bool";
+        else if constexpr (std::is_same_v<T, double>) return "float";
+        else return "int";
+      }, e.ptr);
+      t.push_back({e.name, type, e.unit, e.help, value_string(d, e.ptr)});
+    }
+    return t;
+  }();
+  return table;
+}
+
+void Params::validate() const {
+  for (const Entry& e : entries()) {
+    const double v = as_double(*this, e.ptr);
+    if (!std::isfinite(v) || v < e.lo || v > e.hi) {
+      std::ostringstream s;
+      s << "parameter " << e.name << " = " << value_string(*this, e.ptr) << " is outside [" << e.lo << ", " << e.hi << "]";
+      throw std::invalid_argument(s.str());
+    }
+  }
+  auto order = [](const char* a, double x, const char* b, double y) {
+    if (x > y) throw std::invalid_argument(std::string("parameter ") + a + " must not exceed " + b);
+  };
+  order("scale_min", scale_min, "scale_max", scale_max);
+  order("volume_ratio_min", volume_ratio_min, "volume_ratio_max", volume_ratio_max);
+  order("axis_scale_min", axis_scale_min, "axis_scale_max", axis_scale_max);
+  order("dense_spacing", dense_spacing, "sparse_spacing", sparse_spacing);
+}
+
+std::string params_to_json(const Params& p) {
+  nlohmann::ordered_json j;
+  for (const Entry& e : entries())
+    std::visit([&](auto m) { j[e.name] = p.*m; }, e.ptr);
+  return j.dump();
+}
+
+Params params_from_json(const std::string& text, const Params& base) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& ex) {
+    throw std::invalid_argument(std::string("not valid JSON: ") + ex.what());
+  }
+  if (!j.is_object()) throw std::invalid_argument("parameters must be a JSON object");
+  Params p = base;
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const Entry* found = nullptr;
+    for (const Entry& e : entries())
+      if (it.key() == e.name) found = &e;
+    if (!found) throw std::invalid_argument("unknown parameter '" + it.key() + "'");
+    std::visit([&](auto m) {
+      using T = std::decay_t<decltype(p.*m)>;
+      const auto& v = it.value();
+      if constexpr (std::is_same_v<T, bool>) {
+        if (!v.is_boolean()) throw std::invalid_argument("parameter " + it.key() + " must be true or false");
+        p.*m = v.get<bool>();
+      } else if constexpr (std::is_same_v<T, double>) {
+        if (!v.is_number()) throw std::invalid_argument("parameter " + it.key() + " must be a number");
+        p.*m = v.get<double>();
+      } else {
+        if (!v.is_number_integer() && !(v.is_number() && std::floor(v.get<double>()) == v.get<double>()))
+          throw std::invalid_argument("parameter " + it.key() + " must be a whole number");
+        if (v.get<double>() < 0) throw std::invalid_argument("parameter " + it.key() + " must not be negative");
+        p.*m = v.is_number_unsigned() ? static_cast<T>(v.get<std::uint64_t>()) : static_cast<T>(v.get<double>());
+      }
+    }, found->ptr);
+  }
+  p.validate();
+  return p;
+}
+
+}  // namespace fe

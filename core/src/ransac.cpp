@@ -1,0 +1,127 @@
+// Step 6 (paper 3.8): RANSAC over key point pairs with minimal samples of 5 and the paper's
+// stopping rule (no improvement for `patience` iterations, or an upper bound). Samples are drawn
+// around a random first pair, from pairs whose distances agree with it (guided sampling), and
+// degenerate (near-coplanar) samples are skipped before solving.
+#include "featureextract/geometry.h"
+#include "kdtree.h"
+
+#include <random>
+
+namespace fe {
+
+namespace {
+
+// |volume| of the five tetrahedra of 4 of the 5 points, after normalizing the points to
+// mean 0 and RMS distance 1 (so the test is scale-free). A regular configuration gives ~0.5.
+// Smallest and largest |volume| of the five 4-point tetrahedra (see above).
+std::pair<double, double> tetra_volumes(const Eigen::Matrix<double, 5, 3>& p) {
+  const Eigen::RowVector3d mean = p.colwise().mean();
+  Eigen::Matrix<double, 5, 3> q = p.rowwise() - mean;
+  const double rms = std::sqrt(q.squaredNorm() / 5.0);
+  if (!(rms > 0)) return {0.0, 0.0};
+  q /= rms;
+  double v = INFINITY, w = 0;
+  for (int skip = 0; skip < 5; ++skip) {
+    int idx[4], k = 0;
+    for (int i = 0; i < 5; ++i)
+      if (i != skip) idx[k++] = i;
+    const Eigen::Vector3d a = q.row(idx[1]) - q.row(idx[0]), b = q.row(idx[2]) - q.row(idx[0]), c = q.row(idx[3]) - q.row(idx[0]);
+    const double vol = std::abs(a.dot(b.cross(c))) / 6.0;
+    v = std::min(v, vol);
+    w = std::max(w, vol);
+  }
+  return {v, w};
+}
+
+}  // namespace
+
+RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::function<double(const Eigen::Matrix4d&)>& cost,
+                               const RansacOptions& o, const std::function<bool()>& cancelled) {
+  RansacResult best;
+  best.cost = INFINITY;
+  const int n = static_cast<int>(ref.rows());
+  if (n < 5 || tgt.rows() != ref.rows()) return best;
+  std::mt19937_64 rng(o.seed);
+  KdTree3 tree(tgt);
+  std::vector<int> near, cand;
+  std::vector<float> d2;
+  const double eps = 1e-9 * std::max(1.0, (tgt.colwise().maxCoeff() - tgt.colwise().minCoeff()).norm());
+  double rmin = o.ratio_min, rmax = o.ratio_max;  // for the current sample
+  auto consistent = [&](int a, int b) {
+    const double dr = (ref.row(a) - ref.row(b)).norm(), dt = (tgt.row(a) - tgt.row(b)).norm();
+    if (dr <= eps || dt <= eps) return false;
+    if (rmax > 0) return dt >= rmin * dr && dt <= rmax * dr;
+    return true;
+  };
+  int since_best = 0;
+  for (int it = 0; it < o.max_iterations && since_best < o.patience; ++it) {
+    if ((it & 63) == 0 && cancelled && cancelled()) break;
+    ++best.iterations;
+    ++since_best;
+    const int first = static_cast<int>(rng() % static_cast<std::uint64_t>(n));
+    double locality = o.locality;
+    rmin = o.ratio_min;
+    rmax = o.ratio_max;
+    if (o.scales) {
+      const double sc = (*o.scales)[static_cast<std::size_t>(first)];
+      locality *= sc;
+      rmin = std::max(rmin, sc / 2);
+      rmax = rmax > 0 ? std::min(rmax, 2 * sc) : 2 * sc;
+    }
+    if (locality > 0) {
+      tree.radius(tgt.row(first).transpose(), locality, near, d2);
+    } else {
+      near.resize(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) near[static_cast<std::size_t>(i)] = i;
+    }
+    cand.clear();
+    const double cos_max = std::cos(o.max_angle);
+    for (int c : near) {
+      if (c == first || !consistent(first, c)) continue;
+      if (o.rotations) {
+        const Eigen::Vector3d pr = (*o.rotations)[static_cast<std::size_t>(first)] * (ref.row(c) - ref.row(first)).transpose();
+        const Eigen::Vector3d dt = (tgt.row(c) - tgt.row(first)).transpose();
+        if (!(pr.dot(dt) >= cos_max * pr.norm() * dt.norm())) continue;
+      }
+      cand.push_back(c);
+    }
+    if (cand.size() < 4) continue;
+    std::array<int, 5> s{{first, -1, -1, -1, -1}};
+    int filled = 1;
+    for (int attempt = 0; attempt < 60 && filled < 5; ++attempt) {
+      const int c = cand[rng() % cand.size()];
+      bool ok = true;
+      for (int k = 1; k < filled && ok; ++k) ok = c != s[static_cast<std::size_t>(k)] && consistent(c, s[static_cast<std::size_t>(k)]);
+      if (ok) s[static_cast<std::size_t>(filled++)] = c;
+    }
+    if (filled < 5) continue;
+    Eigen::Matrix<double, 5, 3> r, t;
+    for (int k = 0; k < 5; ++k) {
+      r.row(k) = ref.row(s[static_cast<std::size_t>(k)]);
+      t.row(k) = tgt.row(s[static_cast<std::size_t>(k)]);
+    }
+    // The paper's 5-pair projective solve when the sample determines it; when 4 of the 5 points
+    // are (nearly) coplanar it does not, and an affine fit on the same 5 pairs is used instead.
+    const auto vr = tetra_volumes(r), vt = tetra_volumes(t);
+    Eigen::Matrix4d H;
+    if (!o.affine_only && std::min(vr.first, vt.first) >= o.min_tetra_volume) {
+      if (!solve_projective_5(r, t, H)) continue;
+    } else if (std::min(vr.second, vt.second) >= o.min_tetra_volume) {
+      if (!fit_affine(Points(r), Points(t), H)) continue;
+      ++best.affine_samples;
+    } else {
+      continue;
+    }
+    const double c = cost(H);
+    if (c < best.cost) {
+      best.cost = c;
+      best.H = H;
+      best.found = true;
+      best.sample = s;
+      since_best = 0;
+    }
+  }
+  return best;
+}
+
+}  // namespace fe

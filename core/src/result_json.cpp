@@ -1,0 +1,56 @@
+// The result JSON of the CLI contract. Non-finite numbers never reach the file (they become null).
+#include "featureextract/result.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+
+namespace fe {
+
+namespace {
+nlohmann::ordered_json num(double x) { return std::isfinite(x) ? nlohmann::ordered_json(x) : nlohmann::ordered_json(nullptr); }
+nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {num(v.x()), num(v.y()), num(v.z())}; }
+nlohmann::ordered_json stats(const ShapeStats& s) {
+  return {{"triangles", s.triangles}, {"faces", s.faces}, {"dense_points", s.dense_points},
+          {"sparse_points", s.sparse_points}, {"key_points", s.key_points}, {"descriptors", s.descriptors},
+          {"dropped_degenerate_triangles", s.dropped_degenerate}, {"diagonal", num(s.diagonal)}};
+}
+}  // namespace
+
+std::string result_to_json(const Result& r, int indent) {
+  nlohmann::ordered_json j;
+  j["matches"] = nlohmann::ordered_json::array();
+  for (const Match& m : r.matches) {
+    nlohmann::ordered_json t = nlohmann::ordered_json::array();
+    for (int i = 0; i < 4; ++i) t.push_back({num(m.transform(i, 0)), num(m.transform(i, 1)), num(m.transform(i, 2)), num(m.transform(i, 3))});
+    nlohmann::ordered_json o;
+    o["transform"] = t;
+    o["score"] = num(m.score);
+    o["max_error"] = num(m.max_error);
+    o["rms_error"] = num(m.rms_error);
+    o["scale"] = num(m.scale);
+    o["center"] = vec(m.center);
+    o["bbox"] = {vec(m.bbox_min), vec(m.bbox_max)};
+    o["faces"] = m.faces;
+    if (!m.triangles.empty()) o["triangles"] = m.triangles;
+    o["pairs"] = m.pairs;
+    j["matches"].push_back(o);
+  }
+  j["reference"] = stats(r.reference);
+  j["target"] = stats(r.target);
+  j["feature_size"] = num(r.feature_size);
+  j["pairs"] = {{"shot", r.pairs_shot}, {"shot_si_filtered", r.pairs_ss}, {"clusters", r.clusters}};
+  j["parameters"] = nlohmann::ordered_json::parse(params_to_json(r.params));
+  nlohmann::ordered_json t = nlohmann::ordered_json::object();
+  double total = 0;
+  for (const auto& s : r.timings) {
+    t[s.first] = num(s.second);
+    total += s.second;
+  }
+  t["total"] = num(total);
+  j["timings"] = t;
+  j["warnings"] = r.warnings;
+  return j.dump(indent);
+}
+
+}  // namespace fe

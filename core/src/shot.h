@@ -1,0 +1,31 @@
+// Internal: multi-radius SHOT (Tombari et al.) at key points, with the dense samples as support.
+#pragma once
+
+#include "featureextract/mesh.h"
+
+#include <functional>
+#include <vector>
+
+namespace fe {
+
+constexpr int kShotSize = 352;
+
+struct ShotSet {
+  Eigen::MatrixXf desc;  ///< K x (352 * R): radius r's block is columns [352 r, 352 (r + 1))
+  Eigen::Matrix<bool, Eigen::Dynamic, Eigen::Dynamic> valid;  ///< K x R: block finite and non-zero
+  Eigen::MatrixXf lrf;   ///< K x (9 * R): SHOT local reference frame per radius, rows x, y, z axes
+  /// Rotation (3 x 3, rows = axes in world coordinates) of key point i at radius r.
+  Eigen::Matrix3d frame(Eigen::Index i, Eigen::Index r) const {
+    Eigen::Matrix3d f;
+    for (int a = 0; a < 3; ++a)
+      for (int d = 0; d < 3; ++d) f(a, d) = lrf(i, 9 * r + 3 * a + d);
+    return f;
+  }
+};
+
+/// `after_radius(r)` is called after each radius; return false to stop (then throws fe::Cancelled).
+ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points& support,
+                     const Points& support_normals, const std::vector<double>& radii, int threads,
+                     const std::function<bool(std::size_t)>& after_radius);
+
+}  // namespace fe
