@@ -299,15 +299,6 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   res.clusters = order.size();
   res.timings.push_back({"clusters", sw.lap()});
 
-  if (const char* dump = std::getenv("FE_DEBUG_PAIRS")) {
-    FILE* f = std::fopen(dump, "w");
-    for (std::size_t g = 0; g < cluster_pairs.size(); ++g)
-      for (const auto& c : cluster_pairs[g])
-        std::fprintf(f, "%zu %d %d %d %.4f %.4f %.4f %.4f %.4f %.4f %.4f %.3f %.3f\n", g, c.ref, c.tgt, c.shift, c.distance,
-                     R.keys(c.ref, 0), R.keys(c.ref, 1), R.keys(c.ref, 2), T.keys(c.tgt, 0), T.keys(c.tgt, 1), T.keys(c.tgt, 2),
-                     R.key_si(c.ref), T.key_si(c.tgt));
-    std::fclose(f);
-  }
   // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds.
   // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
   // reference's dense samples, so that a transform must lay the whole feature on the target, not only
@@ -337,17 +328,8 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
   double best_cost_now = INFINITY;  // for early exit inside the cost while a RANSAC runs
 
-  static long dbg_counts[8] = {0};
   auto bounds_ok = [&](const Eigen::Matrix4d& H, double* scale) {
     const Deformation df = deformation(H, rlo, rhi);
-    if (std::getenv("FE_DEBUG")) {
-      ++dbg_counts[0];
-      if (df.reflection) ++dbg_counts[1];
-      if (df.volume_ratio < p.volume_ratio_min || df.volume_ratio > p.volume_ratio_max) ++dbg_counts[2];
-      if (df.scale_min < p.axis_scale_min || df.scale_max > p.axis_scale_max) ++dbg_counts[3];
-      if (df.scale_max > p.max_anisotropy * df.scale_min) ++dbg_counts[4];
-      if (df.perspective > p.max_perspective) ++dbg_counts[5];
-    }
     if (!(df.volume_ratio > 0) || !std::isfinite(df.perspective)) return false;
     if (df.reflection && !p.allow_reflection) return false;
     if (df.volume_ratio < p.volume_ratio_min || df.volume_ratio > p.volume_ratio_max) return false;
@@ -398,21 +380,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
     return errs[q];
   };
 
-  if (const char* gt = std::getenv("FE_DEBUG_T")) {  // cost of a pure translation, for debugging
-    Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
-    std::sscanf(gt, "%lf %lf %lf", &H(0, 3), &H(1, 3), &H(2, 3));
-    best_cost_now = INFINITY;
-    std::fprintf(stderr, "debug: translation cost %.4f quantile/L %.4f\n", cost(H), quantile_error(H) / L);
-    for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) {
-      const Eigen::Vector3d x = eval_pts.row(i);
-      int j;
-      const double e = surface_distance(T, apply_transform(H, x), &j);
-      const double dot = eval_nrm.row(i).dot(T.dense_normals.row(j));
-      if (dot < 0.5 || e > 1)
-        std::fprintf(stderr, "  pt %ld (%.2f %.2f %.2f) n (%.2f %.2f %.2f) e %.3f tn (%.2f %.2f %.2f) dot %.2f\n", (long)i, x.x(), x.y(), x.z(),
-                     eval_nrm(i, 0), eval_nrm(i, 1), eval_nrm(i, 2), e, T.dense_normals(j, 0), T.dense_normals(j, 1), T.dense_normals(j, 2), dot);
-    }
-  }
+  const bool debug = std::getenv("FE_DEBUG") != nullptr;  // trace of every RANSAC outcome on stderr
   std::vector<Instance> found;
   std::uint64_t run = 0;
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
@@ -438,7 +406,6 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       RansacOptions ro;
       ro.rotations = &rots;
       ro.scales = &scales;
-      ro.affine_only = std::getenv("FE_AFFINE") != nullptr;
       ro.max_iterations = p.ransac_max_iterations;
       ro.patience = p.ransac_patience;
       ro.locality = 1.5 * L;  // times the first pair's scale estimate
@@ -454,7 +421,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size())); });
       if (progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size()))) throw Cancelled();
       if (!rr.found) {
-        if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations) solved %ld refl %ld vol %ld axis %ld aniso %ld persp %ld\n", order[oi], pairs.size(), rr.iterations, dbg_counts[0], dbg_counts[1], dbg_counts[2], dbg_counts[3], dbg_counts[4], dbg_counts[5]);
+        if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), rr.iterations);
         break;
       }
       Eigen::Matrix4d H = rr.H;
@@ -556,7 +523,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       }
       const double score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows.size()));
       const bool accepted = err <= p.accept_error * L && score >= p.min_score;
-      if (std::getenv("FE_DEBUG")) {
+      if (debug) {
         const Deformation df = deformation(H, rlo, rhi);
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
         std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",

@@ -38,7 +38,7 @@ struct Params {
   double pair_distance = 0.06;  ///< delta (x L): SHOT pair kept if an SI pair lies this close at both ends
 
   // --- step 5: clusters (x L)
-  double cluster_tolerance = 1.0;  ///< Euclidean clustering tolerance of paired target key points
+  double cluster_tolerance = 2.0;  ///< Euclidean clustering tolerance of paired target key points
   int min_cluster_pairs = 5;       ///< clusters with fewer pairs are dropped
 
   // --- step 6: RANSAC projective transform
@@ -46,7 +46,7 @@ struct Params {
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
   int refine_iterations = 10;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
-  double error_quantile = 0.8;       ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
+  double error_quantile = 0.95;       ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
   double accept_error = 0.05;        ///< accept if that error <= this x L x scale
   double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target
   double volume_ratio_min = 0.3;     ///< bounds of |det| of the linear part (volume expansion ratio)
