@@ -107,11 +107,9 @@ int main(int argc, char** argv) {
   try {
     fe::TessellationOptions to;
     const fe::TriangleMesh ref = fe::read_shape(ref_path, to);
-    // the target is tessellated finely enough for the feature's scale, not only for its own size
-    to.absolute_deflection = to.relative_deflection * ref.diagonal();
-    const fe::TriangleMesh tgt = fe::read_shape(tgt_path, to);
+    const fe::TriangleMesh tgt = fe::read_shape(tgt_path, fe::tessellation_for_feature(ref.diagonal(), to));
     for (const fe::TriangleMesh* m : {&ref, &tgt})
-      if (m->dropped_degenerate > 0 && !quiet)
+      if (m->dropped_degenerate > 0 && !m->from_brep() && !quiet)  // BRepMesh's own slivers are routine
         std::cerr << "featureextract: " << m->source << ": warning: " << m->dropped_degenerate << " zero-area triangles ignored\n";
     result = fe::extract(ref, tgt, params, std::ref(progress));
   } catch (const fe::InputError& e) {

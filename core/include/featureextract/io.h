@@ -17,6 +17,13 @@ struct TessellationOptions {
   double angular_deflection = 0.25;
 };
 
+/// Tessellation options for a target searched for a feature of size L (its bounding-box diagonal):
+/// the deflection is bounded by the feature's scale, not only the target's own size.
+inline TessellationOptions tessellation_for_feature(double feature_size, TessellationOptions o = {}) {
+  o.absolute_deflection = o.relative_deflection * feature_size;
+  return o;
+}
+
 /// Reads STEP (.step/.stp), IGES (.iges/.igs), BREP (.brep/.brp), STL (ascii and binary), OBJ or PLY
 /// (ascii, binary little/big endian). Throws InputError with "PATH: problem" on any failure:
 /// missing, empty, truncated, garbage, non-finite coordinates, no triangles left.

@@ -1,0 +1,115 @@
+"""The featureextract command-line contract (issue 2): exit codes, one-line errors naming the file,
+progress on stderr, and the result JSON. Usage: test_cli.py FEATUREEXTRACT MODELS_DIR"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+EXE, MODELS = sys.argv[1], sys.argv[2]
+REF = os.path.join(MODELS, "rib_reference.step")
+TGT = os.path.join(MODELS, "ribs_bosses.step")
+
+
+def run(*args):
+    return subprocess.run([EXE, *args], capture_output=True, text=True, timeout=600)
+
+
+def no_nan(x):
+    raise ValueError("non-finite number in JSON: " + x)
+
+
+class Cli(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp()
+        self.out = os.path.join(self.dir, "out.json")
+
+    def write(self, name, data):
+        p = os.path.join(self.dir, name)
+        with open(p, "wb") as f:
+            f.write(data)
+        return p
+
+    def assert_input_error(self, r, path):
+        self.assertEqual(r.returncode, 3, r.stderr)
+        # the error is the last line of stderr (progress lines may come before it), and one line
+        errors = [l for l in r.stderr.strip().splitlines() if "%" not in l]
+        self.assertEqual(len(errors), 1, r.stderr)
+        self.assertIn(path, errors[0])
+        self.assertFalse(os.path.exists(self.out), "no output on failure")
+
+    def test_help_documents_every_parameter(self):
+        r = run("extract", "--help")
+        self.assertEqual(r.returncode, 0)
+        for name in ["seed", "dense_spacing", "shot_radii", "scale_max", "pair_distance", "cluster_tolerance",
+                     "ransac_patience", "volume_ratio_max", "max_anisotropy", "face_coverage"]:
+            self.assertIn(name, r.stdout)
+        self.assertIn("default", r.stdout)
+        self.assertIn("Exit codes", r.stdout)
+
+    def test_usage_errors_exit_2(self):
+        self.assertEqual(run().returncode, 2)
+        self.assertEqual(run("extract", "--reference", REF, "--output", self.out).returncode, 2)
+        r = run("extract", "-r", REF, "-t", TGT, "-o", self.out, "--set", "no_such_parameter=1")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("no_such_parameter", r.stderr)
+        cfg = self.write("bad.json", b"{\"si_band\": 5}")
+        r = run("extract", "-r", REF, "-t", TGT, "-o", self.out, "--config", cfg)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("si_band", r.stderr)
+
+    def test_bad_input_exits_3_with_one_line(self):
+        missing = os.path.join(self.dir, "nope.step")
+        self.assert_input_error(run("extract", "-r", REF, "-t", missing, "-o", self.out), missing)
+        garbage = self.write("garbage.step", bytes((i * 7919) % 251 for i in range(20000)))
+        self.assert_input_error(run("extract", "-r", REF, "-t", garbage, "-o", self.out), garbage)
+        empty = self.write("empty.stl", b"")
+        self.assert_input_error(run("extract", "-r", empty, "-t", TGT, "-o", self.out), empty)
+        nan = self.write("nan.stl", b"solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\nvertex 0 1 0\n"
+                                    b"endloop\nendfacet\nendsolid a\n")
+        self.assert_input_error(run("extract", "-r", nan, "-t", TGT, "-o", self.out), nan)
+        flat = os.path.join(MODELS, "flat_reference.step")
+        r = run("extract", "-r", flat, "-t", TGT, "-o", self.out)
+        self.assert_input_error(r, flat)
+        self.assertIn("no distinctive key points", r.stderr)
+        r = run("extract", "-r", TGT, "-t", REF, "-o", self.out)
+        self.assert_input_error(r, TGT)
+        self.assertIn("larger than the target", r.stderr)
+
+    def test_extract_writes_the_json_contract(self):
+        r = run("extract", "--reference", REF, "--target", TGT, "--output", self.out, "--seed", "3")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("%", r.stderr)  # progress
+        with open(self.out) as f:
+            j = json.load(f, parse_constant=no_nan)
+        for key in ["matches", "reference", "target", "parameters", "timings"]:
+            self.assertIn(key, j)
+        self.assertEqual(j["parameters"]["seed"], 3)
+        self.assertEqual(len(j["matches"]), 5)
+        for m in j["matches"]:
+            self.assertEqual(len(m["transform"]), 4)
+            self.assertTrue(all(len(row) == 4 for row in m["transform"]))
+            self.assertAlmostEqual(m["transform"][3][3], 1.0)
+            self.assertTrue(0 <= m["score"] <= 1)
+            self.assertEqual(len(m["center"]), 3)
+            self.assertEqual(len(m["bbox"]), 2)
+            self.assertTrue(all(isinstance(f, int) and f >= 1 for f in m["faces"]))
+            self.assertGreater(m["pairs"], 0)
+        self.assertGreater(j["timings"]["total"], 0)
+
+    def test_nothing_similar_is_exit_0_and_empty(self):
+        r = run("extract", "-q", "-r", REF, "-t", os.path.join(MODELS, "boss_only.step"), "-o", self.out)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stderr, "")  # --quiet
+        with open(self.out) as f:
+            self.assertEqual(json.load(f, parse_constant=no_nan)["matches"], [])
+
+    def test_unwritable_output_exits_4(self):
+        r = run("extract", "-q", "-r", REF, "-t", os.path.join(MODELS, "boss_only.step"), "-o", "/nonexistent/dir/out.json")
+        self.assertEqual(r.returncode, 4)
+        self.assertIn("/nonexistent/dir/out.json", r.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"])
