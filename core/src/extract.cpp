@@ -66,7 +66,7 @@ void report(const ProgressFn& progress, const std::string& stage, double f) {
 
 void set_threads(const Params& p) {
 #ifdef _OPENMP
-  if (p.threads > 0) omp_set_num_threads(p.threads);
+  omp_set_num_threads(p.threads > 0 ? p.threads : omp_get_num_procs());
 #endif
 }
 
@@ -156,7 +156,7 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
     key_n.row(static_cast<Eigen::Index>(i)) = sparse_normals.row(key[i]);
   }
   report(progress, who + ": SHOT descriptors", 0);
-  ShotSet shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, radii, p.threads, [&](std::size_t r) {
+  ShotSet shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, [&](std::size_t r) {
     return !progress || progress(who + ": SHOT descriptors", static_cast<double>(r + 1) / static_cast<double>(radii.size()));
   });
   // Drop key points without any finite descriptor (paper: non-finite descriptors are not matched).

@@ -1,37 +1,57 @@
+// KdTree3 on nanoflann (header-only; faster than FLANN for the many small radius and nearest
+// queries of normals, curvature and RANSAC scoring). PCL's own tree is used only inside SHOT.
 #include "kdtree.h"
 
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_types.h>
+#include <nanoflann.hpp>
+
+#include <limits>
 
 namespace fe {
 
+namespace {
+struct Cloud {
+  std::vector<float> xyz;
+  std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
+  float kdtree_get_pt(std::size_t i, std::size_t d) const { return xyz[3 * i + d]; }
+  template <class B>
+  bool kdtree_get_bbox(B&) const { return false; }
+};
+using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud, 3, int>;
+}  // namespace
+
 struct KdTree3::Impl {
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree{false};  // unsorted radius results: faster
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
+  Cloud cloud;
+  std::unique_ptr<Index> index;
 };
 
 KdTree3::KdTree3(const Points& p) : impl_(new Impl), n_(static_cast<std::size_t>(p.rows())) {
-  impl_->cloud->resize(n_);
-  for (std::size_t i = 0; i < n_; ++i) {
-    auto& q = (*impl_->cloud)[i];
-    q.x = static_cast<float>(p(static_cast<Eigen::Index>(i), 0));
-    q.y = static_cast<float>(p(static_cast<Eigen::Index>(i), 1));
-    q.z = static_cast<float>(p(static_cast<Eigen::Index>(i), 2));
+  impl_->cloud.xyz.resize(3 * n_);
+  for (std::size_t i = 0; i < n_; ++i)
+    for (int d = 0; d < 3; ++d) impl_->cloud.xyz[3 * i + static_cast<std::size_t>(d)] = static_cast<float>(p(static_cast<Eigen::Index>(i), d));
+  if (n_ > 0) {
+    impl_->index = std::make_unique<Index>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    impl_->index->buildIndex();
   }
-  if (n_ > 0) impl_->tree.setInputCloud(impl_->cloud);
 }
 
 KdTree3::~KdTree3() = default;
-
-static pcl::PointXYZ to_pcl(const Eigen::Vector3d& q) {
-  return pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
-}
 
 void KdTree3::radius(const Eigen::Vector3d& q, double r, std::vector<int>& idx, std::vector<float>& d2) const {
   idx.clear();
   d2.clear();
   if (n_ == 0 || !q.allFinite()) return;
-  impl_->tree.radiusSearch(to_pcl(q), r, idx, d2);
+  const float p[3] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())};
+  thread_local std::vector<std::pair<int, float>> hits;
+  hits.clear();
+  nanoflann::SearchParams sp;
+  sp.sorted = false;
+  impl_->index->radiusSearch(p, static_cast<float>(r * r), hits, sp);
+  idx.reserve(hits.size());
+  d2.reserve(hits.size());
+  for (const auto& h : hits) {
+    idx.push_back(h.first);
+    d2.push_back(h.second);
+  }
 }
 
 int KdTree3::nearest(const Eigen::Vector3d& q, double* d2) const {
@@ -39,18 +59,25 @@ int KdTree3::nearest(const Eigen::Vector3d& q, double* d2) const {
     if (d2) *d2 = std::numeric_limits<double>::infinity();
     return -1;
   }
-  std::vector<int> idx(1);
-  std::vector<float> dd(1);
-  impl_->tree.nearestKSearch(to_pcl(q), 1, idx, dd);
-  if (d2) *d2 = dd[0];
-  return idx[0];
+  const float p[3] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())};
+  int i = -1;
+  float dd = 0;
+  impl_->index->knnSearch(p, 1, &i, &dd);
+  if (d2) *d2 = dd;
+  return i;
 }
 
 void KdTree3::knn(const Eigen::Vector3d& q, int k, std::vector<int>& idx, std::vector<float>& d2) const {
   idx.clear();
   d2.clear();
   if (n_ == 0 || !q.allFinite()) return;
-  impl_->tree.nearestKSearch(to_pcl(q), std::min<int>(k, static_cast<int>(n_)), idx, d2);
+  const float p[3] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())};
+  const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(std::max(k, 0)), n_);
+  idx.resize(kk);
+  d2.resize(kk);
+  const std::size_t found = impl_->index->knnSearch(p, kk, idx.data(), d2.data());
+  idx.resize(found);
+  d2.resize(found);
 }
 
 }  // namespace fe

@@ -5,6 +5,7 @@
 #include <pcl/search/kdtree.h>
 
 #include <cmath>
+#include <unordered_map>
 
 namespace fe {
 
@@ -26,8 +27,25 @@ pcl::PointCloud<pcl::PointNormal>::Ptr cloud_of(const Points& p, const Points& n
 }
 }  // namespace
 
+namespace {
+// Indices of one support point per cube of side `h` (the first met), deterministic.
+std::vector<Eigen::Index> thin(const Points& p, double h) {
+  std::unordered_map<std::uint64_t, char> seen;
+  std::vector<Eigen::Index> keep;
+  const Eigen::RowVector3d o = p.colwise().minCoeff();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    const Eigen::RowVector3d g = ((p.row(i) - o) / h).array().floor();
+    const std::uint64_t k = (static_cast<std::uint64_t>(g(0)) & 0x1FFFFF) << 42 | (static_cast<std::uint64_t>(g(1)) & 0x1FFFFF) << 21 |
+                            (static_cast<std::uint64_t>(g(2)) & 0x1FFFFF);
+    if (seen.emplace(k, 1).second) keep.push_back(i);
+  }
+  return keep;
+}
+}  // namespace
+
 ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points& support, const Points& support_normals,
-                     const std::vector<double>& radii, int threads, const std::function<bool(std::size_t)>& after_radius) {
+                     double support_spacing, const std::vector<double>& radii, int threads,
+                     const std::function<bool(std::size_t)>& after_radius) {
   const Eigen::Index K = keys.rows();
   const Eigen::Index R = static_cast<Eigen::Index>(radii.size());
   ShotSet out;
@@ -36,10 +54,40 @@ ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points
   out.lrf.setZero(K, 9 * R);
   if (K == 0) return out;
   auto key_cloud = cloud_of(keys, key_normals);
-  auto surface = cloud_of(support, support_normals);
-  pcl::search::KdTree<pcl::PointNormal>::Ptr tree(new pcl::search::KdTree<pcl::PointNormal>(false));
-  tree->setInputCloud(surface);  // built once; SHOT reuses it for every radius (same surface pointer)
+  // Support levels: level k has spacing support_spacing * 2^k; each is built once, with its kd-tree
+  // (SHOT reuses a tree whose input is the same surface pointer).
+  struct Level {
+    pcl::PointCloud<pcl::PointNormal>::Ptr cloud;
+    pcl::search::KdTree<pcl::PointNormal>::Ptr tree;
+  };
+  std::vector<Level> levels;
+  auto level_for = [&](double radius) -> const Level& {
+    std::size_t k = 0;
+    while (support_spacing * std::pow(2.0, static_cast<double>(k + 1)) <= radius / kSupportPerRadius) ++k;
+    while (levels.size() <= k) {
+      const double h = support_spacing * std::pow(2.0, static_cast<double>(levels.size()));
+      Level l;
+      if (levels.empty()) {
+        l.cloud = cloud_of(support, support_normals);
+      } else {
+        const std::vector<Eigen::Index> idx = thin(support, h);
+        Points p(static_cast<Eigen::Index>(idx.size()), 3), n(static_cast<Eigen::Index>(idx.size()), 3);
+        for (std::size_t i = 0; i < idx.size(); ++i) {
+          p.row(static_cast<Eigen::Index>(i)) = support.row(idx[i]);
+          n.row(static_cast<Eigen::Index>(i)) = support_normals.row(idx[i]);
+        }
+        l.cloud = cloud_of(p, n);
+      }
+      l.tree.reset(new pcl::search::KdTree<pcl::PointNormal>(false));
+      l.tree->setInputCloud(l.cloud);
+      levels.push_back(l);
+    }
+    return levels[k];
+  };
   for (Eigen::Index r = 0; r < R; ++r) {
+    const Level& level = level_for(radii[static_cast<std::size_t>(r)]);
+    const auto& surface = level.cloud;
+    const auto& tree = level.tree;
     pcl::SHOTEstimationOMP<pcl::PointNormal, pcl::PointNormal, pcl::SHOT352> shot(threads > 0 ? threads : 0);
     shot.setInputCloud(key_cloud);
     shot.setSearchSurface(surface);

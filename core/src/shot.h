@@ -23,9 +23,14 @@ struct ShotSet {
   }
 };
 
+/// Support points come from `support` (spacing `support_spacing`), thinned for large radii to a
+/// spacing of about radius / kSupportPerRadius (powers of two of the original spacing): SHOT's
+/// histograms are normalized, so what matters is enough points per support sphere, not all of them.
+/// The rule depends only on the radius and the spacing, so reference and target stay comparable.
 /// `after_radius(r)` is called after each radius; return false to stop (then throws fe::Cancelled).
+constexpr double kSupportPerRadius = 10.0;
 ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points& support,
-                     const Points& support_normals, const std::vector<double>& radii, int threads,
+                     const Points& support_normals, double support_spacing, const std::vector<double>& radii, int threads,
                      const std::function<bool(std::size_t)>& after_radius);
 
 }  // namespace fe

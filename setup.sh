@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Sets FeatureExtract up on a fresh Debian bookworm machine and runs the main job on the bundled
+# example: installs the Debian packages, builds (Release, -j2), generates the example models and
+# finds the ribs of the example plate. Safe to run again (each step is incremental).
+#   ./setup.sh            everything
+#   FE_SKIP_APT=1 ./setup.sh   when the packages are already there
+set -euo pipefail
+cd "$(dirname "$0")"
+BUILD=${FE_BUILD_DIR:-build}
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
+  libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
+  python3 python3-numpy
+)
+if [ -z "${FE_SKIP_APT:-}" ]; then
+  missing=()
+  for p in "${PACKAGES[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+  if [ ${#missing[@]} -gt 0 ]; then
+    echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+    SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO=sudo
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  fi
+fi
+
+cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3 >/dev/null
+cmake --build "$BUILD" -j2
+
+"$BUILD/fe_make_models" "$BUILD/models"
+echo "setup: main job: find the reference rib on the example plate (5 ribs of different widths, 2 bosses)"
+"$BUILD/featureextract" extract \
+  --reference "$BUILD/models/rib_reference.step" \
+  --target "$BUILD/models/ribs_bosses.step" \
+  --output "$BUILD/example_result.json"
+/usr/bin/python3 - "$BUILD/example_result.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+print(f"setup: {len(r['matches'])} instances found in {r['timings']['total']:.1f} s -> {sys.argv[1]}")
+for i, m in enumerate(r["matches"], 1):
+    c = ", ".join(f"{x:.1f}" for x in m["center"])
+    print(f"  #{i}: center ({c}) scale {m['scale']:.2f} score {m['score']:.2f} "
+          f"fit error {m['rms_error']:.2f} mm, faces {m['faces'][:6]}{'...' if len(m['faces']) > 6 else ''}")
+PY
