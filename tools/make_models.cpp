@@ -40,6 +40,7 @@
 #include <gp_Trsf.hxx>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <random>
@@ -235,6 +236,9 @@ int main(int argc, char** argv) {
   }
   Message::DefaultMessenger()->RemovePrinters(STANDARD_TYPE(Message_PrinterOStream));
   const std::string dir = argv[1];
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) die(dir + ": cannot create folder: " + ec.message());
   const bool bench = argc > 2 && std::string(argv[2]) == "--bench";
   std::ostringstream truth;
   truth << "{\n";
