@@ -12,7 +12,7 @@ PACKAGES=(
   build-essential cmake pkg-config
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
   libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
-  python3 python3-numpy
+  python3 python3-numpy python3-pytest pybind11-dev python3-pybind11
 )
 if [ -z "${FE_SKIP_APT:-}" ]; then
   missing=()

@@ -643,8 +643,8 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   return res;
 }
 
-Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params, const ProgressFn& progress) {
-  params.validate();
+namespace {
+void check_sizes(const TriangleMesh& reference, const TriangleMesh& target, const Params& params) {
   const double L = reference.diagonal();
   const double Lt = target.diagonal();
   if (!(L > 0)) throw InputError((reference.source.empty() ? "reference" : reference.source) + ": reference has zero size");
@@ -655,6 +655,43 @@ Result extract(const TriangleMesh& reference, const TriangleMesh& target, const 
       << ") even at the smallest scale searched (scale_min " << params.scale_min << ")";
     throw InputError(e.str());
   }
+}
+
+// The parameters that change a shape's description (steps 1-3), with the feature size.
+std::string description_key(double L, const Params& p) {
+  std::ostringstream k;
+  k.precision(17);
+  k << L << ' ' << p.seed << ' ' << p.dense_spacing << ' ' << p.sparse_spacing << ' ' << p.max_dense_points << ' '
+    << p.normal_radius << ' ' << p.curvature_radius << ' ' << p.planar_curvedness << ' ' << p.shot_radius << ' '
+    << p.shot_radii << ' ' << p.shot_radius_ratio << ' ' << p.scale_min << ' ' << p.scale_max << ' ' << p.si_band;
+  return k.str();
+}
+}  // namespace
+
+PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
+
+Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params, const ProgressFn& progress) {
+  params.validate();
+  check_sizes(reference, mesh_, params);
+  const double L = reference.diagonal();
+  const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+  const std::string key = description_key(L, params);
+  const ShapeDescription* t = nullptr;
+  for (const auto& c : cache_)
+    if (c.first == key) t = &c.second;
+  if (!t) {
+    cache_.emplace_back(key, describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
+    ++built_;
+    if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
+    t = &cache_.back().second;
+  }
+  return match(r, *t, mesh_, params, progress);
+}
+
+Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params, const ProgressFn& progress) {
+  params.validate();
+  check_sizes(reference, target, params);
+  const double L = reference.diagonal();
   const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
   const ShapeDescription t = describe(target, ShapeDescription::Role::Target, L, params, progress);
   return match(r, t, target, params, progress);

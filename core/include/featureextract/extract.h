@@ -48,6 +48,23 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
 Result match(const ShapeDescription& reference, const ShapeDescription& target,
              const TriangleMesh& target_mesh, const Params& params, const ProgressFn& progress = {});
 
+/// A target whose descriptions are kept for reuse: extracting several references from the same
+/// target describes it once per distinct feature size and descriptor parameters (not per query).
+class PreparedTarget {
+ public:
+  explicit PreparedTarget(TriangleMesh mesh);
+  const TriangleMesh& mesh() const { return mesh_; }
+  /// Same as extract(reference, mesh(), params, progress), reusing a matching description.
+  Result extract(const TriangleMesh& reference, const Params& params = {}, const ProgressFn& progress = {});
+  /// How many target descriptions were computed so far (steps 1-3 on the target).
+  int descriptions_built() const { return built_; }
+
+ private:
+  TriangleMesh mesh_;
+  std::vector<std::pair<std::string, ShapeDescription>> cache_;  // key: L + descriptor parameters
+  int built_ = 0;
+};
+
 /// All six steps. Throws InputError for bad input (message names the shape), Cancelled.
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params = {},
                const ProgressFn& progress = {});

@@ -1,0 +1,51 @@
+"""FeatureExtract: find every region of a target shape similar to a reference feature.
+
+The method is Takashima & Kanai's (shape index + multi-radius SHOT key points, RANSAC projective
+transform), extended as described in the project README. This package is a thin layer over the C++
+core (`featureextract._core`); the same function serves the CLI, the FreeCAD workbench and scripts.
+
+    import featureextract as fx
+    ref = fx.read_shape("rib.step")
+    tgt = fx.read_target("part.step", ref)          # tessellated finely enough for the feature
+    result = fx.extract(ref, tgt, fx.Params(seed=2))
+    for m in result.matches:
+        print(m.score, m.center, m.faces)
+
+Long runs release the GIL; pass progress=callable(stage, fraction) and return False from it to cancel
+(fx.Cancelled is raised). Bad input raises fx.InputError (a ValueError) naming the file.
+"""
+from ._core import (Cancelled, InputError, Match, Mesh, Params, PreparedTarget, Result, ShapeStats,  # noqa: F401
+                    extract as _extract, param_table, read_brep_string, read_shape, tessellation_for_feature)
+
+__all__ = ["Cancelled", "InputError", "Match", "Mesh", "Params", "PreparedTarget", "Result", "ShapeStats", "extract",
+           "make_params", "param_table", "read_brep_string", "read_shape", "read_target"]
+
+
+def make_params(**values):
+    """Params with the engine's defaults, overridden by keyword (unknown names raise ValueError)."""
+    p = Params()
+    names = {row["name"] for row in param_table()}
+    for k, v in values.items():
+        if k not in names:
+            raise ValueError(f"unknown parameter '{k}'")
+        setattr(p, k, v)
+    return p
+
+
+def read_target(path, reference):
+    """Reads a target file tessellated for searching `reference` (a Mesh): the deflection is bounded by
+    the reference's size, not only the target's."""
+    rel, absolute = tessellation_for_feature(reference.diagonal)
+    return read_shape(path, relative_deflection=rel, absolute_deflection=absolute)
+
+
+def extract(reference, target, params=None, progress=None, **param_values):
+    """All six steps: the instances of `reference` in `target` (Meshes, or a PreparedTarget to reuse
+    its descriptors). Parameters as a Params or as keywords."""
+    if params is None:
+        params = make_params(**param_values)
+    elif param_values:
+        raise TypeError("give parameters either as params= or as keywords, not both")
+    if isinstance(target, PreparedTarget):
+        return target.extract(reference, params, progress)
+    return _extract(reference, target, params, progress)

@@ -1,0 +1,210 @@
+// pybind11 mirror of the C++ API (core/include/featureextract). Only type translation lives here:
+// numpy <-> Eigen, C++ exceptions <-> Python exceptions, the progress callback <-> Python callable.
+#include "featureextract/extract.h"
+#include "featureextract/io.h"
+
+#include <pybind11/eigen.h>
+#include <pybind11/functional.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+
+namespace {
+
+// Wraps a Python progress callable for use from the (GIL-released) core: the GIL is taken only for
+// the call. The callable returns False to cancel; None or True to go on. A Python exception inside
+// it cancels too, and is re-raised after the core has stopped.
+struct PyProgress {
+  py::object fn;
+  std::shared_ptr<py::error_already_set> error;
+  bool operator()(const std::string& stage, double fraction) {
+    py::gil_scoped_acquire gil;
+    try {
+      py::object r = fn(stage, fraction);
+      return r.is_none() || r.cast<bool>();
+    } catch (py::error_already_set& e) {
+      error = std::make_shared<py::error_already_set>(std::move(e));
+      return false;
+    }
+  }
+};
+
+fe::ProgressFn make_progress(const py::object& fn, PyProgress*& holder, std::shared_ptr<PyProgress>& keep) {
+  if (fn.is_none()) return {};
+  keep = std::make_shared<PyProgress>(PyProgress{fn, nullptr});
+  holder = keep.get();
+  return [keep](const std::string& s, double f) { return (*keep)(s, f); };
+}
+
+template <typename F>
+fe::Result run_released(const py::object& progress, F&& body) {
+  PyProgress* holder = nullptr;
+  std::shared_ptr<PyProgress> keep;
+  const fe::ProgressFn pf = make_progress(progress, holder, keep);
+  try {
+    py::gil_scoped_release release;
+    return body(pf);
+  } catch (const fe::Cancelled&) {
+    if (holder && holder->error) throw *holder->error;
+    throw;
+  }
+}
+
+fe::TriangleMesh mesh_from_arrays(const fe::Points& v, const fe::Triangles& t, const std::optional<Eigen::VectorXi>& faces,
+                                  const std::string& name) {
+  fe::TriangleMesh m;
+  m.vertices = v;
+  m.triangles = t;
+  m.source = name;
+  if (faces) {
+    if (faces->size() != t.rows()) throw fe::InputError(name + ": face_ids has " + std::to_string(faces->size()) + " entries for " + std::to_string(t.rows()) + " triangles");
+    m.face_ids = *faces;
+    m.num_faces = faces->size() ? faces->maxCoeff() : 0;
+  }
+  fe::validate_mesh(m);
+  return m;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "FeatureExtract core: find regions of a target shape similar to a reference feature "
+            "(Takashima & Kanai). See the featureextract package for the documented API.";
+
+  static py::exception<fe::InputError> input_error(m, "InputError", PyExc_ValueError);
+  static py::exception<fe::Cancelled> cancelled(m, "Cancelled", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const fe::InputError& e) {
+      input_error(e.what());
+    } catch (const fe::Cancelled& e) {
+      cancelled(e.what());
+    }
+  });
+
+  py::class_<fe::TriangleMesh>(m, "Mesh", "A triangle soup with per-triangle B-rep face ids (1-based FaceN, 0 for mesh input).")
+      .def(py::init(&mesh_from_arrays), py::arg("vertices"), py::arg("triangles"), py::arg("face_ids") = py::none(),
+           py::arg("name") = "<arrays>",
+           "Mesh from numpy arrays: vertices (N, 3) float, triangles (T, 3) int (0-based), optional face_ids (T,) "
+           "1-based FaceN per triangle. Validated like a file (raises InputError).")
+      .def_readonly("vertices", &fe::TriangleMesh::vertices)
+      .def_readonly("triangles", &fe::TriangleMesh::triangles)
+      .def_readonly("face_ids", &fe::TriangleMesh::face_ids)
+      .def_readonly("num_faces", &fe::TriangleMesh::num_faces)
+      .def_readonly("source", &fe::TriangleMesh::source)
+      .def_readonly("dropped_degenerate", &fe::TriangleMesh::dropped_degenerate)
+      .def_readonly("reoriented", &fe::TriangleMesh::reoriented)
+      .def_property_readonly("diagonal", &fe::TriangleMesh::diagonal, "bounding-box diagonal")
+      .def("__repr__", [](const fe::TriangleMesh& x) {
+        return "<featureextract.Mesh " + x.source + ": " + std::to_string(x.triangles.rows()) + " triangles, " +
+               std::to_string(x.num_faces) + " faces>";
+      });
+
+  m.def("read_shape", [](const std::string& path, double relative_deflection, double absolute_deflection) {
+        fe::TessellationOptions o;
+        o.relative_deflection = relative_deflection;
+        o.absolute_deflection = absolute_deflection;
+        py::gil_scoped_release release;
+        return fe::read_shape(path, o);
+      },
+      py::arg("path"), py::arg("relative_deflection") = fe::TessellationOptions{}.relative_deflection,
+      py::arg("absolute_deflection") = 0.0,
+      "Read STEP/IGES/BREP (tessellated) or STL/OBJ/PLY. Raises InputError naming the file.");
+  m.def("read_brep_string", [](const std::string& brep, const std::string& name, double relative_deflection, double absolute_deflection) {
+        fe::TessellationOptions o;
+        o.relative_deflection = relative_deflection;
+        o.absolute_deflection = absolute_deflection;
+        py::gil_scoped_release release;
+        return fe::read_brep_string(brep, o, name);
+      },
+      py::arg("brep"), py::arg("name") = "<brep string>", py::arg("relative_deflection") = fe::TessellationOptions{}.relative_deflection,
+      py::arg("absolute_deflection") = 0.0,
+      "Tessellate a B-rep from Part.Shape.exportBrepToString(); faces keep FreeCAD's FaceN numbering.");
+
+  auto params = py::class_<fe::Params>(m, "Params", "Extraction parameters; lengths are fractions of L, the reference diagonal.");
+  params.def(py::init<>())
+      .def("validate", &fe::Params::validate)
+      .def("to_json", [](const fe::Params& p) { return fe::params_to_json(p); })
+      .def_static("from_json", [](const std::string& s) { return fe::params_from_json(s); });
+  // One property per documented parameter, with its help, unit and default as the docstring.
+  for (const fe::ParamInfo& info : fe::param_table()) {
+    const std::string name = info.name;
+    const std::string doc = info.help + (info.unit.empty() ? "" : " [" + info.unit + "]") + " (default " + info.default_value + ")";
+    params.def_property(
+        name.c_str(),
+        [name](const fe::Params& p) -> py::object {
+          const py::dict d = py::module_::import("json").attr("loads")(fe::params_to_json(p));
+          return d[py::str(name)];
+        },
+        [name](fe::Params& p, py::object v) {
+          const std::string j = py::module_::import("json").attr("dumps")(py::dict(py::arg(name.c_str()) = v)).cast<std::string>();
+          try {
+            p = fe::params_from_json(j, p);
+          } catch (const std::invalid_argument& e) {
+            throw py::value_error(e.what());
+          }
+        },
+        doc.c_str());
+  }
+  m.def("param_table", [] {
+    py::list out;
+    for (const auto& i : fe::param_table())
+      out.append(py::dict(py::arg("name") = i.name, py::arg("type") = i.type, py::arg("unit") = i.unit, py::arg("help") = i.help,
+                          py::arg("default") = i.default_value));
+    return out;
+  }, "Every parameter: name, type, unit, help, default.");
+
+  py::class_<fe::Match>(m, "Match", "One found instance.")
+      .def_readonly("transform", &fe::Match::transform, "4x4 H mapping reference to target coordinates (h44 = 1)")
+      .def_readonly("score", &fe::Match::score)
+      .def_readonly("max_error", &fe::Match::max_error)
+      .def_readonly("rms_error", &fe::Match::rms_error)
+      .def_readonly("scale", &fe::Match::scale)
+      .def_readonly("center", &fe::Match::center)
+      .def_readonly("bbox_min", &fe::Match::bbox_min)
+      .def_readonly("bbox_max", &fe::Match::bbox_max)
+      .def_readonly("faces", &fe::Match::faces, "1-based target FaceN covered (B-rep input)")
+      .def_readonly("triangles", &fe::Match::triangles, "0-based target triangles covered (mesh input)")
+      .def_readonly("pairs", &fe::Match::pairs);
+
+  py::class_<fe::ShapeStats>(m, "ShapeStats")
+      .def_readonly("triangles", &fe::ShapeStats::triangles)
+      .def_readonly("faces", &fe::ShapeStats::faces)
+      .def_readonly("dense_points", &fe::ShapeStats::dense_points)
+      .def_readonly("sparse_points", &fe::ShapeStats::sparse_points)
+      .def_readonly("key_points", &fe::ShapeStats::key_points)
+      .def_readonly("descriptors", &fe::ShapeStats::descriptors)
+      .def_readonly("diagonal", &fe::ShapeStats::diagonal);
+
+  py::class_<fe::Result>(m, "Result")
+      .def_readonly("matches", &fe::Result::matches)
+      .def_readonly("reference", &fe::Result::reference)
+      .def_readonly("target", &fe::Result::target)
+      .def_readonly("feature_size", &fe::Result::feature_size)
+      .def_readonly("timings", &fe::Result::timings)
+      .def_readonly("warnings", &fe::Result::warnings)
+      .def_readonly("params", &fe::Result::params)
+      .def("to_json", [](const fe::Result& r) { return fe::result_to_json(r); }, "the CLI's result JSON");
+
+  m.def("extract", [](const fe::TriangleMesh& ref, const fe::TriangleMesh& tgt, const fe::Params& p, const py::object& progress) {
+        return run_released(progress, [&](const fe::ProgressFn& pf) { return fe::extract(ref, tgt, p, pf); });
+      },
+      py::arg("reference"), py::arg("target"), py::arg("params") = fe::Params{}, py::arg("progress") = py::none(),
+      "All six steps; releases the GIL. progress(stage, fraction) may return False to cancel (raises Cancelled).");
+
+  py::class_<fe::PreparedTarget>(m, "PreparedTarget", "A target whose descriptors are computed once and reused across references.")
+      .def(py::init<fe::TriangleMesh>(), py::arg("mesh"))
+      .def_property_readonly("mesh", &fe::PreparedTarget::mesh)
+      .def_property_readonly("descriptions_built", &fe::PreparedTarget::descriptions_built)
+      .def("extract", [](fe::PreparedTarget& t, const fe::TriangleMesh& ref, const fe::Params& p, const py::object& progress) {
+            return run_released(progress, [&](const fe::ProgressFn& pf) { return t.extract(ref, p, pf); });
+          },
+          py::arg("reference"), py::arg("params") = fe::Params{}, py::arg("progress") = py::none());
+
+  m.def("tessellation_for_feature", [](double L) {
+    const auto o = fe::tessellation_for_feature(L);
+    return py::make_tuple(o.relative_deflection, o.absolute_deflection);
+  }, "(relative, absolute) deflection to read a target searched for a feature of diagonal L");
+}

@@ -1,0 +1,131 @@
+"""Python bindings (issue 3): numpy in and out, errors, progress, cancel, GIL release, target reuse.
+Run by ctest with PYTHONPATH=<build>/python and FE_MODELS=<build>/models (see tests/CMakeLists.txt)."""
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import featureextract as fx
+
+MODELS = os.environ.get("FE_MODELS", "build/models")
+
+
+@pytest.fixture(scope="module")
+def ref():
+    return fx.read_shape(os.path.join(MODELS, "rib_reference.step"))
+
+
+@pytest.fixture(scope="module")
+def tgt(ref):
+    return fx.read_target(os.path.join(MODELS, "ribs_bosses.step"), ref)
+
+
+def test_params_defaults_docs_and_validation():
+    p = fx.Params()
+    assert p.seed == 1 and p.shot_radii == 3
+    assert "default" in fx.Params.scale_max.__doc__
+    names = [row["name"] for row in fx.param_table()]
+    assert "pair_distance" in names and len(names) == len(set(names))
+    q = fx.make_params(seed=7, scale_max=2.0)
+    assert (q.seed, q.scale_max) == (7, 2.0)
+    with pytest.raises(ValueError):
+        fx.make_params(no_such_parameter=1)
+    with pytest.raises(ValueError):
+        p.si_band = 0.9  # out of range
+    assert fx.Params.from_json(q.to_json()).seed == 7
+
+
+def test_mesh_from_arrays_is_validated():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], dtype=float)
+    t = np.array([[0, 1, 2], [1, 3, 2]])
+    m = fx.Mesh(v, t, np.array([1, 2]), name="quad")
+    assert m.triangles.shape == (2, 3) and m.num_faces == 2 and m.face_ids.tolist() == [1, 2]
+    with pytest.raises(fx.InputError, match="quad: .*non-finite"):
+        fx.Mesh(np.array([[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), name="quad")
+    with pytest.raises(fx.InputError, match="missing vertex"):
+        fx.Mesh(v, np.array([[0, 1, 9]]), name="quad")
+    with pytest.raises(fx.InputError, match="face_ids"):
+        fx.Mesh(v, t, np.array([1]), name="quad")
+
+
+def test_bad_file_raises_input_error_naming_it(tmp_path):
+    p = tmp_path / "junk.stl"
+    p.write_bytes(b"\x01\x02 garbage")
+    with pytest.raises(fx.InputError, match=str(p)):
+        fx.read_shape(str(p))
+    with pytest.raises(ValueError):  # InputError is a ValueError
+        fx.read_shape(str(tmp_path / "missing.step"))
+
+
+def test_extract_returns_numpy_results(ref, tgt):
+    r = fx.extract(ref, tgt, seed=1)
+    assert len(r.matches) == 5
+    for m in r.matches:
+        assert isinstance(m.transform, np.ndarray) and m.transform.shape == (4, 4)
+        assert m.transform[3, 3] == pytest.approx(1.0)
+        assert 0.9 <= m.score <= 1.0
+        assert len(m.faces) >= 20 and min(m.faces) >= 1
+        assert m.center.shape == (3,)
+    assert '"matches"' in r.to_json()
+    assert dict(r.timings)["target_shot"] > 0
+
+
+def test_arrays_and_brep_string_give_the_same_answer(ref, tgt):
+    again = fx.Mesh(tgt.vertices, tgt.triangles, tgt.face_ids, name="arrays")
+    a, b = fx.extract(ref, tgt), fx.extract(ref, again)
+    assert [m.faces for m in a.matches] == [m.faces for m in b.matches]
+    with open(os.path.join(MODELS, "rib_reference.brep")) as f:
+        from_string = fx.read_brep_string(f.read(), name="picked faces")
+    assert from_string.num_faces == ref.num_faces == 25
+    assert len(fx.extract(from_string, tgt).matches) == 5
+
+
+def test_progress_and_cancel(ref, tgt):
+    stages = []
+
+    def record(stage, fraction):
+        stages.append((stage, fraction))
+
+    fx.extract(ref, tgt, progress=record)
+    names = [s for s, _ in stages]
+    assert "target: SHOT descriptors" in names and "ransac" in names and names[-1] == "done"
+    assert all(0.0 <= f <= 1.0 for _, f in stages)
+
+    with pytest.raises(fx.Cancelled):
+        fx.extract(ref, tgt, progress=lambda s, f: not s.startswith("target"))
+
+    def boom(stage, fraction):
+        raise KeyError("from the callback")
+
+    with pytest.raises(KeyError):  # an exception in the callback stops the run and comes back
+        fx.extract(ref, tgt, progress=boom)
+
+
+def test_extract_releases_the_gil(ref, tgt):
+    ticks = []
+    done = threading.Event()
+
+    def work():
+        fx.extract(ref, tgt)
+        done.set()
+
+    th = threading.Thread(target=work)
+    th.start()
+    while not done.is_set():
+        ticks.append(time.monotonic())
+        time.sleep(0.01)
+    th.join()
+    assert len(ticks) > 20  # the main thread kept running during the extraction
+
+
+def test_prepared_target_reuses_its_descriptors(ref, tgt):
+    prepared = fx.PreparedTarget(tgt)
+    first = fx.extract(ref, prepared)
+    assert prepared.descriptions_built == 1
+    second = fx.extract(ref, prepared, seed=1)
+    assert prepared.descriptions_built == 1  # not recomputed
+    assert [m.faces for m in first.matches] == [m.faces for m in second.matches]
+    fx.extract(ref, prepared, dense_spacing=0.02)  # other descriptor parameters: a new description
+    assert prepared.descriptions_built == 2
