@@ -203,6 +203,33 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("reference"), py::arg("params") = fe::Params{}, py::arg("progress") = py::none());
 
+  py::class_<fe::ShapeDescription> desc(m, "Description", "Steps 1-3 of one shape: samples, key points, descriptors.");
+  py::enum_<fe::ShapeDescription::Role>(desc, "Role")
+      .value("Reference", fe::ShapeDescription::Role::Reference)
+      .value("Target", fe::ShapeDescription::Role::Target);
+  desc.def_property_readonly("dense_points", &fe::ShapeDescription::dense_points)
+      .def_property_readonly("sparse_points", &fe::ShapeDescription::sparse_points)
+      .def_property_readonly("key_points", &fe::ShapeDescription::key_points)
+      .def_property_readonly("key_shape_index", &fe::ShapeDescription::key_shape_index)
+      .def_property_readonly("stats", &fe::ShapeDescription::stats)
+      .def_property_readonly("feature_size", &fe::ShapeDescription::feature_size)
+      .def_property_readonly("warnings", &fe::ShapeDescription::warnings);
+  m.def("describe", [](const fe::TriangleMesh& mesh, fe::ShapeDescription::Role role, double feature_size, const fe::Params& p,
+                       const py::object& progress) {
+        PyProgress* holder = nullptr;
+        std::shared_ptr<PyProgress> keep;
+        const fe::ProgressFn pf = make_progress(progress, holder, keep);
+        try {
+          py::gil_scoped_release release;
+          return fe::describe(mesh, role, feature_size, p, pf);
+        } catch (const fe::Cancelled&) {
+          if (holder && holder->error) throw *holder->error;
+          throw;
+        }
+      },
+      py::arg("mesh"), py::arg("role"), py::arg("feature_size"), py::arg("params") = fe::Params{}, py::arg("progress") = py::none(),
+      "Steps 1-3 for one shape (feature_size = L, the reference diagonal); for display and inspection.");
+
   m.def("tessellation_for_feature", [](double L) {
     const auto o = fe::tessellation_for_feature(L);
     return py::make_tuple(o.relative_deflection, o.absolute_deflection);

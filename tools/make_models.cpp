@@ -1,6 +1,7 @@
 // fe_make_models OUTDIR [--bench]
 // Generates the test and example models with OpenCASCADE, plus ground truth (truth.json):
 //   rib_reference.step      the reference feature: faces of one filleted rib (an open shell)
+//   rib_wide_reference.brep the faces of the second rib of ribs_bosses.step, cut from the plate
 //   scaled_ribs.step        plate with 5 copies of the rib scaled 1.0, 1.2, 1.4, 1.6, 1.8
 //   ribs_bosses.step        plate with 5 ribs of different top/bottom widths and 2 filleted bosses
 //   ribs_bosses_cracked.stl (b) tessellated, unwelded, each face shifted (cracks) and jittered
@@ -282,6 +283,8 @@ int main(int argc, char** argv) {
   const std::vector<Boss> bosses_b = {{45, 100}, {135, 100, 7.5, 14}};
   const TopoDS_Shape b = part(185, 130, ribs_b, bosses_b);
   write_step(b, dir + "/ribs_bosses.step");
+  // a reference cut from the plate itself: the faces of its second rib (10 mm base, 5 mm top)
+  BRepTools::Write(cut_faces(b, 60 - 15, 40 - 30, 60 + 15, 40 + 30), (dir + "/rib_wide_reference.brep").c_str());
   truth << "  \"ribs_bosses.step\": {\"ribs\": [";
   for (std::size_t i = 0; i < ribs_b.size(); ++i) truth << (i ? ", " : "") << json_point(ribs_b[i].x, ribs_b[i].y, 0);
   truth << "], \"bosses\": [";

@@ -14,10 +14,10 @@ core (`featureextract._core`); the same function serves the CLI, the FreeCAD wor
 Long runs release the GIL; pass progress=callable(stage, fraction) and return False from it to cancel
 (fx.Cancelled is raised). Bad input raises fx.InputError (a ValueError) naming the file.
 """
-from ._core import (Cancelled, InputError, Match, Mesh, Params, PreparedTarget, Result, ShapeStats,  # noqa: F401
-                    extract as _extract, param_table, read_brep_string, read_shape, tessellation_for_feature)
+from ._core import (Cancelled, Description, InputError, Match, Mesh, Params, PreparedTarget, Result,  # noqa: F401
+                    ShapeStats, describe, extract as _extract, param_table, read_brep_string, read_shape, tessellation_for_feature)
 
-__all__ = ["Cancelled", "InputError", "Match", "Mesh", "Params", "PreparedTarget", "Result", "ShapeStats", "extract",
+__all__ = ["Cancelled", "Description", "describe", "InputError", "Match", "Mesh", "Params", "PreparedTarget", "Result", "ShapeStats", "extract",
            "make_params", "param_table", "read_brep_string", "read_shape", "read_target"]
 
 

@@ -30,6 +30,7 @@ struct ShapeDescription::Impl {
   Samples dense;
   Points dense_normals;  // PCA normals of the dense samples
   std::shared_ptr<KdTree3> dense_tree;
+  Points sparse_points;
   Points keys, key_normals;
   Eigen::VectorXd key_si;
   ShotSet shot;
@@ -44,6 +45,10 @@ ShapeStats ShapeDescription::stats() const { return impl_ ? impl_->stats : Shape
 double ShapeDescription::feature_size() const { return impl_ ? impl_->L : 0.0; }
 ShapeDescription::Role ShapeDescription::role() const { return impl_ ? impl_->role : Role::Target; }
 std::vector<std::pair<std::string, double>> ShapeDescription::timings() const { return impl_ ? impl_->timings : decltype(impl_->timings){}; }
+const Points& ShapeDescription::dense_points() const { return impl_->dense.points; }
+const Points& ShapeDescription::sparse_points() const { return impl_->sparse_points; }
+const Points& ShapeDescription::key_points() const { return impl_->keys; }
+const Eigen::VectorXd& ShapeDescription::key_shape_index() const { return impl_->key_si; }
 std::vector<std::string> ShapeDescription::warnings() const { return impl_ ? impl_->warnings : std::vector<std::string>{}; }
 
 namespace {
@@ -180,6 +185,7 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   }
   d->timings.push_back({who + "_shot", sw.lap()});
   d->dense_tree = std::make_shared<KdTree3>(d->dense.points);
+  d->sparse_points = sparse.points;
 
   ShapeStats& s = d->stats;
   s.triangles = static_cast<std::size_t>(mesh.triangles.rows());

@@ -33,6 +33,11 @@ class ShapeDescription {
   /// Seconds per stage spent building it.
   std::vector<std::pair<std::string, double>> timings() const;
   std::vector<std::string> warnings() const;
+  /// Step 1-3 outputs, for display: dense and sparse samples, key points and their shape index.
+  const Points& dense_points() const;
+  const Points& sparse_points() const;
+  const Points& key_points() const;
+  const Eigen::VectorXd& key_shape_index() const;
 
  private:
   std::shared_ptr<const Impl> impl_;

@@ -46,7 +46,7 @@ struct Params {
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
   int refine_iterations = 10;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
-  double error_quantile = 0.95;       ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
+  double error_quantile = 0.9;        ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
   double accept_error = 0.05;        ///< accept if that error <= this x L x scale
   double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target
   double volume_ratio_min = 0.3;     ///< bounds of |det| of the linear part (volume expansion ratio)

@@ -1,0 +1,212 @@
+"""Headless API of the FeatureExtract workbench: works in freecadcmd, macros and the GUI alike.
+
+    import FreeCAD as App
+    from freecad.feature_extract import api
+    doc = App.openDocument("part.FCStd")          # or App.newDocument() + Part.read(...)
+    part = doc.getObject("Part")
+    ref = api.make_reference(part, ["Face12", "Face13", "Face14"])
+    results = api.extract(part, ref, seed=1)       # one FeatureExtractResult per instance
+    for r in results:
+        print(r.Label, r.Score, r.Faces)
+
+Every document change happens in one transaction after the computation succeeded; on any error the
+document is left exactly as it was (nothing is created, recolored or removed)."""
+import FreeCAD as App
+
+from . import translate  # noqa: F401  (also sets up sys.path for the native module)
+
+import featureextract as fx
+
+RESULT_GROUP = "FeatureExtractResults"
+PALETTE = [(0.89, 0.10, 0.11), (0.22, 0.49, 0.72), (0.30, 0.69, 0.29), (1.00, 0.50, 0.00), (0.60, 0.31, 0.64),
+           (0.65, 0.34, 0.16), (0.97, 0.51, 0.75), (0.00, 0.75, 0.75), (0.74, 0.74, 0.13), (0.10, 0.10, 0.55)]
+
+
+class FeatureExtractError(ValueError):
+    """A problem the user can fix (bad selection, no solid, unreadable shape): one clear sentence."""
+
+
+# ---------------------------------------------------------------------------------------------
+# shapes -> core meshes
+
+def _shape_of(obj):
+    shape = getattr(obj, "Shape", None)
+    if shape is None or shape.isNull():
+        raise FeatureExtractError(f"{obj.Label}: has no shape")
+    return shape
+
+
+def target_shape(obj):
+    """The solid(s) of a target object; a shape without faces is refused."""
+    shape = _shape_of(obj)
+    if not shape.Faces:
+        raise FeatureExtractError(f"{obj.Label}: has no faces to search")
+    return shape
+
+
+def mesh_of_shape(shape, name, feature_size=None):
+    """Tessellates a Part.Shape through its BREP text, so the core's faces are FreeCAD's FaceN."""
+    if feature_size:
+        rel, absolute = fx.tessellation_for_feature(feature_size)
+        return fx.read_brep_string(shape.exportBrepToString(), name, rel, absolute)
+    return fx.read_brep_string(shape.exportBrepToString(), name)
+
+
+def reference_mesh(reference):
+    """Mesh of a reference: a FeatureExtractReference object, a Part.Shape or a file path."""
+    if isinstance(reference, str):
+        return fx.read_shape(reference)
+    if hasattr(reference, "isNull"):
+        return mesh_of_shape(reference, "reference")
+    if getattr(reference, "Proxy", None).__class__.__name__ == "ReferenceFeature":
+        return mesh_of_shape(reference_shape(reference), reference.Label)
+    raise FeatureExtractError(f"{getattr(reference, 'Label', reference)}: not a reference feature")
+
+
+# ---------------------------------------------------------------------------------------------
+# reference features
+
+def reference_shape(ref_obj):
+    """The faces of a reference feature as one compound (FaceN of its source, in the order given)."""
+    src = ref_obj.Source
+    if src is None:
+        raise FeatureExtractError(f"{ref_obj.Label}: its source object is gone")
+    shape = _shape_of(src)
+    faces = []
+    for name in ref_obj.Faces:
+        if not name.startswith("Face"):
+            raise FeatureExtractError(f"{ref_obj.Label}: '{name}' is not a face")
+        try:
+            faces.append(shape.getElement(name))
+        except Exception:
+            raise FeatureExtractError(f"{ref_obj.Label}: {src.Label} has no {name}")
+    if not faces:
+        raise FeatureExtractError(f"{ref_obj.Label}: no faces")
+    import Part
+    return Part.makeCompound(faces)
+
+
+def make_reference(source, faces, label="Reference"):
+    """Creates a persistent Reference feature from faces of `source` (names like 'Face3')."""
+    from .objects import ReferenceFeature
+    faces = list(faces)
+    if not faces:
+        raise FeatureExtractError(translate("FeatureExtract", "Select one or more faces of a solid first."))
+    bad = [f for f in faces if not f.startswith("Face")]
+    if bad:
+        raise FeatureExtractError(f"{source.Label}: only faces can make a reference, not {', '.join(bad)}")
+    shape = _shape_of(source)
+    for f in faces:
+        try:
+            shape.getElement(f)
+        except Exception:
+            raise FeatureExtractError(f"{source.Label}: has no {f}")
+    doc = source.Document
+    doc.openTransaction("Make reference feature")
+    try:
+        obj = doc.addObject("Part::FeaturePython", label)
+        ReferenceFeature(obj)
+        obj.Source = source
+        obj.Faces = faces
+        if App.GuiUp:
+            from .objects import ViewProviderReference
+            ViewProviderReference(obj.ViewObject)
+        doc.recompute()
+    except Exception:
+        doc.abortTransaction()
+        raise
+    doc.commitTransaction()
+    return obj
+
+
+def save_reference(ref_obj, path):
+    """Writes a reference feature's faces as a BREP file (reusable with read_shape / the CLI)."""
+    reference_shape(ref_obj).exportBrep(path)
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# extraction
+
+_cache = {}  # key -> fx.Result: lets the GUI compute in the background and record a replayable call
+
+
+def _key(target_obj, reference, params):
+    ref_key = reference if isinstance(reference, str) else getattr(reference, "Name", id(reference))
+    ref_faces = tuple(getattr(reference, "Faces", ()))
+    return (target_obj.Document.Name, target_obj.Name, target_shape(target_obj).hashCode(), ref_key, ref_faces,
+            params.to_json())
+
+
+def compute(target_obj, reference, progress=None, **params):
+    """Runs the extraction without touching the document; returns the core's Result (cached, so an
+    immediately following extract() with the same arguments does not compute again)."""
+    p = fx.make_params(**params)
+    ref = reference_mesh(reference)
+    tgt = mesh_of_shape(target_shape(target_obj), target_obj.Label, ref.diagonal)
+    result = fx.extract(ref, tgt, p, progress)
+    _cache.clear()
+    _cache[_key(target_obj, reference, p)] = result
+    return result
+
+
+def extract(target_obj, reference, progress=None, **params):
+    """Finds the instances of `reference` (a reference feature object, a Part.Shape or a file path) on
+    `target_obj` and records one FeatureExtractResult object per instance in the document's result
+    group (previous results for the same target and reference are replaced). Returns them."""
+    p = fx.make_params(**params)
+    result = _cache.pop(_key(target_obj, reference, p), None)
+    if result is None:
+        result = compute(target_obj, reference, progress, **params)
+        _cache.clear()
+    return add_results(target_obj, reference, result)
+
+
+def add_results(target_obj, reference, result):
+    from .objects import ExtractionResult
+    doc = target_obj.Document
+    doc.openTransaction("Extract similar features")
+    try:
+        group = doc.getObject(RESULT_GROUP)
+        if group is None:
+            group = doc.addObject("App::DocumentObjectGroup", RESULT_GROUP)
+            group.Label = "Similar features"
+        ref_obj = reference if hasattr(reference, "TypeId") else None
+        for old in list(group.Group):
+            if getattr(old, "Target", None) == target_obj and getattr(old, "Reference", None) == ref_obj:
+                doc.removeObject(old.Name)
+        created = []
+        for i, m in enumerate(result.matches):
+            obj = doc.addObject("App::FeaturePython", "Similar")
+            ExtractionResult(obj)
+            obj.Label = f"Similar {i + 1} ({m.score:.2f})"
+            obj.Target = target_obj
+            obj.Reference = ref_obj
+            obj.Transform = App.Matrix(*[float(x) for x in m.transform.flatten()])
+            obj.Score = m.score
+            obj.MaxError = m.max_error
+            obj.RmsError = m.rms_error
+            obj.Scale = m.scale
+            obj.Center = App.Vector(*[float(x) for x in m.center])
+            obj.Faces = [int(f) for f in m.faces]
+            obj.Pairs = int(m.pairs)
+            obj.Color = PALETTE[i % len(PALETTE)]
+            if App.GuiUp:
+                from .objects import ViewProviderResult
+                ViewProviderResult(obj.ViewObject)
+            group.addObject(obj)
+            created.append(obj)
+        doc.recompute()
+    except Exception:
+        doc.abortTransaction()
+        raise
+    doc.commitTransaction()
+    if App.GuiUp:
+        from .objects import recolor
+        recolor(target_obj)
+    return created
+
+
+def results_for(target_obj):
+    group = target_obj.Document.getObject(RESULT_GROUP)
+    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj]

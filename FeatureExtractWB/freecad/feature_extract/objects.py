@@ -1,0 +1,167 @@
+"""Document objects of the workbench. Results live in App properties (saved in the .FCStd, available
+headless); colors are applied by the view providers, never stored in the model."""
+import FreeCAD as App
+
+from . import icon
+
+
+class ReferenceFeature:
+    """A reference feature: a list of faces (FaceN) of a source solid. Its Shape is their compound."""
+
+    def __init__(self, obj):
+        obj.Proxy = self
+        obj.addProperty("App::PropertyLink", "Source", "Reference", "The solid the faces belong to")
+        obj.addProperty("App::PropertyStringList", "Faces", "Reference", "Faces of the source, e.g. Face3")
+
+    def execute(self, obj):
+        from .api import reference_shape
+        if obj.Source is not None and obj.Faces:
+            obj.Shape = reference_shape(obj)
+
+    def onDocumentRestored(self, obj):
+        obj.Proxy = self
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+
+class ExtractionResult:
+    """One found instance of a reference on a target (issue 2's result fields)."""
+
+    def __init__(self, obj):
+        obj.Proxy = self
+        add = obj.addProperty
+        add("App::PropertyLink", "Target", "Result", "The part searched")
+        add("App::PropertyLink", "Reference", "Result", "The reference feature searched for")
+        add("App::PropertyMatrix", "Transform", "Result", "Projective H: reference to target coordinates")
+        add("App::PropertyFloat", "Score", "Result", "Fraction of the mapped reference lying on the target")
+        add("App::PropertyFloat", "MaxError", "Result", "Acceptance error (quantile of distances), model units")
+        add("App::PropertyFloat", "RmsError", "Result", "RMS fit error of the mapped reference, model units")
+        add("App::PropertyFloat", "Scale", "Result", "Cube root of the volume ratio of H")
+        add("App::PropertyVector", "Center", "Result", "Center of the matched region")
+        add("App::PropertyIntegerList", "Faces", "Result", "Matched target faces (FaceN numbers)")
+        add("App::PropertyInteger", "Pairs", "Result", "Key point pairs consistent with H")
+        add("App::PropertyColor", "Color", "Result", "Color of the matched faces in the 3D view")
+
+    def execute(self, obj):
+        pass
+
+    def onDocumentRestored(self, obj):
+        obj.Proxy = self
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+
+def face_names(result_obj):
+    return [f"Face{f}" for f in result_obj.Faces]
+
+
+def recolor(target_obj):
+    """Colors the target's faces: every result on it in its own color, the rest in the shape color.
+    Deferred to the event loop: a DiffuseColor set inside a recompute is overwritten afterwards."""
+    if not App.GuiUp or target_obj is None:
+        return
+    from PySide import QtCore
+
+    def apply():
+        from .api import results_for
+        vo = getattr(target_obj, "ViewObject", None)
+        if vo is None:
+            return
+        n = len(target_obj.Shape.Faces)
+        base = tuple(vo.ShapeColor[:3]) + (0.0,)
+        colors = [base] * n
+        for r in results_for(target_obj):
+            if getattr(r, "ViewObject", None) is not None and not r.ViewObject.Visibility:
+                continue
+            for f in r.Faces:
+                if 1 <= f <= n:
+                    colors[f - 1] = tuple(r.Color[:3]) + (0.0,)
+        vo.DiffuseColor = colors
+
+    QtCore.QTimer.singleShot(0, apply)
+
+
+def clear_colors(target_obj):
+    vo = getattr(target_obj, "ViewObject", None)
+    if vo is not None:
+        vo.DiffuseColor = [tuple(vo.ShapeColor[:3]) + (0.0,)] * len(target_obj.Shape.Faces)
+
+
+class ViewProviderReference:
+    def __init__(self, vobj):
+        vobj.Proxy = self
+        vobj.ShapeColor = (1.0, 0.85, 0.0)
+        vobj.Transparency = 40
+
+    def attach(self, vobj):
+        self.Object = vobj.Object
+
+    def getIcon(self):
+        return icon("PickReference")
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+
+class ViewProviderResult:
+    """Shows a result as colored faces on its target; hiding it removes its color."""
+
+    def __init__(self, vobj):
+        vobj.Proxy = self
+
+    def attach(self, vobj):
+        self.Object = vobj.Object
+
+    def getIcon(self):
+        return icon("Extract")
+
+    def getDisplayModes(self, vobj):
+        return ["Default"]
+
+    def getDefaultDisplayMode(self):
+        return "Default"
+
+    def updateData(self, obj, prop):
+        if prop in ("Faces", "Color", "Target"):
+            recolor(obj.Target)
+
+    def onChanged(self, vobj, prop):
+        if prop == "Visibility":
+            recolor(vobj.Object.Target)
+
+    def onDelete(self, vobj, subelements):
+        target = vobj.Object.Target
+        from PySide import QtCore
+        QtCore.QTimer.singleShot(0, lambda: recolor(target) if target and target.Document else None)
+        return True
+
+    def doubleClicked(self, vobj):
+        select_faces(vobj.Object)
+        return True
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+
+def select_faces(result_obj):
+    """Selects the result's faces on its target in the 3D view."""
+    import FreeCADGui as Gui
+    target = result_obj.Target
+    if target is None:
+        return
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(target, face_names(result_obj))

@@ -1,0 +1,112 @@
+"""Headless workbench tests (issue 3), run by `freecadcmd tests/freecad/test_app.py` with FE_MODELS
+(generated models), FE_WB (the FeatureExtractWB folder) and FEATUREEXTRACT_PYTHONPATH set by CTest.
+Exits 0 when every test passes."""
+import os
+import sys
+import tempfile
+import traceback
+import unittest
+
+sys.path.insert(0, os.environ["FE_WB"])
+import freecad  # noqa: E402  (FreeCAD's namespace package; extend it with the workbench's folder)
+
+if os.path.join(os.environ["FE_WB"], "freecad") not in freecad.__path__:
+    freecad.__path__.append(os.path.join(os.environ["FE_WB"], "freecad"))
+
+import FreeCAD as App  # noqa: E402
+import Part  # noqa: E402
+
+from freecad.feature_extract import api  # noqa: E402
+
+MODELS = os.environ["FE_MODELS"]
+
+
+def rib_faces(shape, x, halfwidth=8.0):
+    """FaceN of the rib standing at x on the example plate (its faces above the plate top)."""
+    out = []
+    for i, f in enumerate(shape.Faces, 1):
+        b = f.BoundBox
+        if b.XMin >= x - halfwidth and b.XMax <= x + halfwidth and b.ZMin > -1e-3 and b.ZMax > 0.5:
+            out.append(f"Face{i}")
+    return out
+
+
+class App_(unittest.TestCase):
+    def setUp(self):
+        self.doc = App.newDocument("fe_test")
+        self.part = self.doc.addObject("Part::Feature", "Part")
+        self.part.Shape = Part.read(os.path.join(MODELS, "ribs_bosses.step"))
+        self.doc.recompute()
+
+    def tearDown(self):
+        App.closeDocument(self.doc.Name)
+
+    def test_reference_from_faces_extract_save_reopen(self):
+        faces = rib_faces(self.part.Shape, 60.0)
+        self.assertGreaterEqual(len(faces), 15)
+        ref = api.make_reference(self.part, faces)
+        self.assertEqual(len(ref.Shape.Faces), len(faces))
+        results = api.extract(self.part, ref, seed=1)
+        self.assertEqual(len(results), 5)
+        picked = {int(f[4:]) for f in faces}
+        own = max(results, key=lambda r: len(picked & set(r.Faces)))
+        self.assertGreaterEqual(len(picked & set(own.Faces)), 0.8 * len(picked))  # finds itself
+        for r in results:
+            self.assertGreater(r.Score, 0.9)
+            self.assertGreaterEqual(len(r.Faces), 15)
+            self.assertAlmostEqual(r.Transform.A44, 1.0)
+        # save, close, reopen: the results are intact
+        path = os.path.join(tempfile.mkdtemp(), "results.FCStd")
+        saved = [(r.Name, list(r.Faces), r.Score, r.Transform.A14) for r in results]
+        ref_name = ref.Name
+        self.doc.saveAs(path)
+        App.closeDocument(self.doc.Name)
+        self.doc = App.openDocument(path)
+        group = self.doc.getObject(api.RESULT_GROUP)
+        self.assertIsNotNone(group)
+        again = sorted((r.Name, list(r.Faces), r.Score, r.Transform.A14) for r in group.Group)
+        self.assertEqual(again, sorted(saved))
+        for r in group.Group:
+            self.assertEqual(r.Target.Name, "Part")
+            self.assertIsNotNone(r.Reference)
+        # running again replaces the results instead of piling them up
+        api.extract(self.doc.getObject("Part"), self.doc.getObject(ref_name), seed=1)
+        self.assertEqual(len(self.doc.getObject(api.RESULT_GROUP).Group), 5)
+
+    def test_reference_file_and_saved_brep(self):
+        results = api.extract(self.part, os.path.join(MODELS, "rib_reference.step"))
+        self.assertEqual(len(results), 5)
+        ref = api.make_reference(self.part, rib_faces(self.part.Shape, 25.0))
+        brep = os.path.join(tempfile.mkdtemp(), "rib.brep")
+        api.save_reference(ref, brep)
+        self.assertEqual(len(Part.read(brep).Faces), len(ref.Faces))
+
+    def test_bad_input_leaves_the_document_unchanged(self):
+        before = sorted(o.Name for o in self.doc.Objects)
+        with self.assertRaises(api.FeatureExtractError):
+            api.make_reference(self.part, [])
+        with self.assertRaises(api.FeatureExtractError):
+            api.make_reference(self.part, ["Edge3"])
+        with self.assertRaises(api.FeatureExtractError):
+            api.make_reference(self.part, ["Face9999"])
+        empty = self.doc.addObject("App::FeaturePython", "NoShape")
+        before.append(empty.Name)
+        with self.assertRaises(api.FeatureExtractError):
+            api.extract(empty, os.path.join(MODELS, "rib_reference.step"))
+        with self.assertRaises(ValueError):  # the core's InputError: a planar reference
+            api.extract(self.part, os.path.join(MODELS, "flat_reference.step"))
+        with self.assertRaises(ValueError):
+            api.extract(self.part, os.path.join(MODELS, "rib_reference.step"), no_such_parameter=3)
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), sorted(before))
+
+
+# freecadcmd runs a script with __name__ set to its module name, not "__main__": run unconditionally.
+try:
+    suite = unittest.defaultTestLoader.loadTestsFromTestCase(App_)
+    ok = unittest.TextTestRunner(verbosity=2).run(suite).wasSuccessful()
+except Exception:
+    traceback.print_exc()
+    ok = False
+sys.stdout.flush()
+sys.stderr.flush()
+os._exit(0 if ok else 1)
