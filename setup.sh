@@ -13,6 +13,7 @@ PACKAGES=(
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
   libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
   python3 python3-numpy python3-pytest pybind11-dev python3-pybind11
+  freecad xvfb xauth
 )
 if [ -z "${FE_SKIP_APT:-}" ]; then
   missing=()
@@ -29,6 +30,13 @@ cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/p
 cmake --build "$BUILD" -j2
 
 "$BUILD/fe_make_models" "$BUILD/models"
+
+# The FreeCAD workbench: a link in the user's Mod folder (FreeCAD 0.20's XDG location). It finds the
+# Python module in $BUILD/python through the link's real path.
+MOD="${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"
+mkdir -p "$MOD"
+ln -sfn "$(pwd)/FeatureExtractWB" "$MOD/FeatureExtract"
+echo "setup: FreeCAD workbench linked: $MOD/FeatureExtract -> $(pwd)/FeatureExtractWB"
 echo "setup: main job: find the reference rib on the example plate (5 ribs of different widths, 2 bosses)"
 "$BUILD/featureextract" extract \
   --reference "$BUILD/models/rib_reference.step" \

@@ -52,17 +52,6 @@ def mesh_of_shape(shape, name, feature_size=None):
     return fx.read_brep_string(shape.exportBrepToString(), name)
 
 
-def reference_mesh(reference):
-    """Mesh of a reference: a FeatureExtractReference object, a Part.Shape or a file path."""
-    if isinstance(reference, str):
-        return fx.read_shape(reference)
-    if hasattr(reference, "isNull"):
-        return mesh_of_shape(reference, "reference")
-    if getattr(reference, "Proxy", None).__class__.__name__ == "ReferenceFeature":
-        return mesh_of_shape(reference_shape(reference), reference.Label)
-    raise FeatureExtractError(f"{getattr(reference, 'Label', reference)}: not a reference feature")
-
-
 # ---------------------------------------------------------------------------------------------
 # reference features
 
@@ -138,16 +127,50 @@ def _key(target_obj, reference, params):
             params.to_json())
 
 
+class Job:
+    """Everything an extraction needs, taken from the document in the main thread; run() then needs
+    no document access and can go to a worker thread."""
+
+    def __init__(self, target_obj, reference, **params):
+        self.params = fx.make_params(**params)
+        self.key = _key(target_obj, reference, self.params)
+        self.reference = reference if isinstance(reference, str) else None
+        self.reference_brep = None
+        self.reference_label = "reference"
+        if self.reference is None:
+            if hasattr(reference, "isNull"):
+                self.reference_brep = reference.exportBrepToString()
+            elif getattr(reference, "Proxy", None).__class__.__name__ == "ReferenceFeature":
+                self.reference_brep = reference_shape(reference).exportBrepToString()
+                self.reference_label = reference.Label
+            else:
+                raise FeatureExtractError(f"{getattr(reference, 'Label', reference)}: not a reference feature")
+        self.target_brep = target_shape(target_obj).exportBrepToString()
+        self.target_label = target_obj.Label
+
+
+def prepare(target_obj, reference, **params):
+    return Job(target_obj, reference, **params)
+
+
+def run(job, progress=None):
+    """The computation of a Job (core only; releases the GIL). Result is cached for extract()."""
+    if job.reference is not None:
+        ref = fx.read_shape(job.reference)
+    else:
+        ref = fx.read_brep_string(job.reference_brep, job.reference_label)
+    rel, absolute = fx.tessellation_for_feature(ref.diagonal)
+    tgt = fx.read_brep_string(job.target_brep, job.target_label, rel, absolute)
+    result = fx.extract(ref, tgt, job.params, progress)
+    _cache.clear()
+    _cache[job.key] = result
+    return result
+
+
 def compute(target_obj, reference, progress=None, **params):
     """Runs the extraction without touching the document; returns the core's Result (cached, so an
     immediately following extract() with the same arguments does not compute again)."""
-    p = fx.make_params(**params)
-    ref = reference_mesh(reference)
-    tgt = mesh_of_shape(target_shape(target_obj), target_obj.Label, ref.diagonal)
-    result = fx.extract(ref, tgt, p, progress)
-    _cache.clear()
-    _cache[_key(target_obj, reference, p)] = result
-    return result
+    return run(prepare(target_obj, reference, **params), progress)
 
 
 def extract(target_obj, reference, progress=None, **params):

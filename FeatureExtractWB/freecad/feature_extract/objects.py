@@ -100,6 +100,9 @@ class ViewProviderReference:
         vobj.Proxy = self
         vobj.ShapeColor = (1.0, 0.85, 0.0)
         vobj.Transparency = 40
+        # it lies exactly on the source's faces: hidden by default so that it does not mask the
+        # result colors there (space bar shows it)
+        vobj.Visibility = False
 
     def attach(self, vobj):
         self.Object = vobj.Object

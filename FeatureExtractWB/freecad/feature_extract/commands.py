@@ -1,0 +1,199 @@
+"""The workbench's commands. Each one that changes the document goes through Gui.doCommand with a
+plain call of `freecad.feature_extract.api`, so the macro recorder captures a replayable script."""
+import FreeCAD as App
+import FreeCADGui as Gui
+
+from . import icon, translate
+
+INTERACTIVE = True  # False in tests: errors go to the report view only (no modal dialog)
+last_error = None
+
+
+def report_error(message):
+    """A clear message for the user: a dialog and the report view; never a traceback."""
+    global last_error
+    last_error = message
+    App.Console.PrintError("FeatureExtract: " + message + "\n")
+    if INTERACTIVE:
+        from PySide import QtGui
+        QtGui.QMessageBox.warning(Gui.getMainWindow(), translate("FeatureExtract", "FeatureExtract"), message)
+
+
+def _selected_solid():
+    sel = Gui.Selection.getSelectionEx()
+    for s in sel:
+        shape = getattr(s.Object, "Shape", None)
+        if shape is not None and not shape.isNull() and shape.Faces and \
+                getattr(s.Object, "Proxy", None).__class__.__name__ != "ReferenceFeature":
+            return s.Object
+    return None
+
+
+def _references(doc):
+    return [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
+
+
+class Tessellate:
+    def GetResources(self):
+        return {"Pixmap": icon("Tessellate"), "MenuText": translate("FeatureExtract", "Show samples and key points"),
+                "ToolTip": translate("FeatureExtract", "Toggle an overlay of the dense and sparse samples (grey, blue) "
+                                                       "and key points (red) of the selected solid")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None
+
+    def Activated(self):
+        from . import overlay
+        obj = _selected_solid()
+        if obj is None:
+            report_error(translate("FeatureExtract", "Select a solid (a part with faces) first."))
+            return
+        if overlay.shown(obj):
+            overlay.hide(obj)
+            return
+        import featureextract as fx
+        from . import api
+        from PySide import QtCore, QtGui
+        refs = _references(obj.Document)
+        try:
+            QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
+            L = api.reference_shape(refs[0]).BoundBox.DiagonalLength if refs else obj.Shape.BoundBox.DiagonalLength / 5
+            mesh = api.mesh_of_shape(api.target_shape(obj), obj.Label, L)
+            d = fx.describe(mesh, fx.Description.Role.Target, L, fx.Params())
+        except Exception as e:  # noqa: BLE001  (shown to the user as a sentence)
+            report_error(str(e))
+            return
+        finally:
+            QtGui.QApplication.restoreOverrideCursor()
+        overlay.show(obj, d)
+        App.Console.PrintMessage(
+            f"FeatureExtract: {obj.Label}: {mesh.triangles.shape[0]} triangles, {d.dense_points.shape[0]} dense and "
+            f"{d.sparse_points.shape[0]} sparse samples, {d.key_points.shape[0]} key points (feature size {L:.2f})\n")
+
+
+class PickReference:
+    def GetResources(self):
+        return {"Pixmap": icon("PickReference"), "MenuText": translate("FeatureExtract", "Pick reference feature"),
+                "ToolTip": translate("FeatureExtract", "Make the faces selected on a solid a persistent reference feature")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None
+
+    def Activated(self):
+        sel = [s for s in Gui.Selection.getSelectionEx() if s.SubElementNames]
+        if not sel:
+            report_error(translate("FeatureExtract", "Select one or more faces of a solid first."))
+            return
+        if len({s.Object.Name for s in sel}) > 1:
+            report_error(translate("FeatureExtract", "Select faces of one solid only."))
+            return
+        obj, names = sel[0].Object, [n for s in sel for n in s.SubElementNames]
+        bad = [n for n in names if not n.startswith("Face")]
+        if bad:
+            report_error(translate("FeatureExtract", "Only faces can make a reference; the selection has ") + ", ".join(bad))
+            return
+        Gui.addModule("freecad.feature_extract.api")
+        try:
+            Gui.doCommand(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
+                          f".getObject('{obj.Name}'), {names!r})")
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+
+
+class SaveReference:
+    def GetResources(self):
+        return {"Pixmap": icon("SaveReference"), "MenuText": translate("FeatureExtract", "Save reference as BREP"),
+                "ToolTip": translate("FeatureExtract", "Write the selected reference feature's faces to a BREP file")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None and bool(_references(App.ActiveDocument))
+
+    def Activated(self):
+        from PySide import QtGui
+        sel = [s.Object for s in Gui.Selection.getSelectionEx() if s.Object in _references(s.Object.Document)]
+        refs = sel or _references(App.ActiveDocument)
+        path, _ = QtGui.QFileDialog.getSaveFileName(Gui.getMainWindow(), translate("FeatureExtract", "Save reference"),
+                                                    refs[0].Label + ".brep", "BREP (*.brep *.brp)")
+        if not path:
+            return
+        Gui.addModule("freecad.feature_extract.api")
+        try:
+            Gui.doCommand(f"freecad.feature_extract.api.save_reference(App.getDocument('{refs[0].Document.Name}')"
+                          f".getObject('{refs[0].Name}'), {path!r})")
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+
+
+class Extract:
+    def GetResources(self):
+        return {"Pixmap": icon("Extract"), "MenuText": translate("FeatureExtract", "Extract similar features"),
+                "ToolTip": translate("FeatureExtract", "Find every region of the selected solid similar to a reference feature")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None and Gui.Control.activeDialog() is False
+
+    def Activated(self):
+        from .taskpanel import ExtractPanel
+        doc = App.ActiveDocument
+        refs = _references(doc)
+        if not refs:
+            report_error(translate("FeatureExtract", "Pick a reference feature first (select faces, then Pick reference)."))
+            return
+        target = _selected_solid() or refs[0].Source
+        if target is None:
+            report_error(translate("FeatureExtract", "Select the solid to search."))
+            return
+        Gui.Control.showDialog(ExtractPanel(target, refs))
+
+
+class ClearColors:
+    def GetResources(self):
+        return {"Pixmap": icon("ClearColors"), "MenuText": translate("FeatureExtract", "Clear result colors"),
+                "ToolTip": translate("FeatureExtract", "Give every searched part its plain color back (results are kept)")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None
+
+    def Activated(self):
+        from . import api
+        from .objects import clear_colors
+        group = App.ActiveDocument.getObject(api.RESULT_GROUP)
+        targets = {r.Target.Name: r.Target for r in (group.Group if group else []) if r.Target is not None}
+        for t in targets.values():
+            clear_colors(t)
+            for r in api.results_for(t):
+                r.ViewObject.Visibility = False
+
+
+class _SelectionObserver:
+    """Selecting a result in the tree selects its faces on the target."""
+
+    def addSelection(self, doc, obj, sub, pnt):
+        o = App.getDocument(doc).getObject(obj)
+        if o is not None and getattr(o, "Proxy", None).__class__.__name__ == "ExtractionResult" and not sub:
+            from PySide import QtCore
+            from .objects import select_faces
+            QtCore.QTimer.singleShot(0, lambda: select_faces(o))
+
+
+_observer = None
+
+
+def watch_selection(on):
+    global _observer
+    if on and _observer is None:
+        _observer = _SelectionObserver()
+        Gui.Selection.addObserver(_observer)
+    elif not on and _observer is not None:
+        Gui.Selection.removeObserver(_observer)
+        _observer = None
+
+
+COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
+            "FE_Extract": Extract, "FE_ClearColors": ClearColors}
+
+
+def register():
+    for name, cls in COMMANDS.items():
+        Gui.addCommand(name, cls())
+    return list(COMMANDS)

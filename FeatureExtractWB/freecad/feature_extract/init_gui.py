@@ -1,0 +1,30 @@
+"""Registers the FeatureExtract workbench (FreeCAD imports this module on start-up)."""
+import FreeCADGui as Gui
+
+from . import icon, translate
+
+
+class FeatureExtractWorkbench(Gui.Workbench):
+    MenuText = translate("FeatureExtract", "FeatureExtract")
+    ToolTip = translate("FeatureExtract", "Find every region of a part similar to a reference feature")
+    Icon = icon("FeatureExtract")
+
+    def Initialize(self):
+        from . import commands  # lazy: the C++ core is loaded only when the workbench is used
+        names = commands.register()
+        self.appendToolbar("FeatureExtract", names)
+        self.appendMenu("&FeatureExtract", names)
+
+    def Activated(self):
+        from . import commands
+        commands.watch_selection(True)
+
+    def Deactivated(self):
+        from . import commands
+        commands.watch_selection(False)
+
+    def GetClassName(self):
+        return "Gui::PythonWorkbench"
+
+
+Gui.addWorkbench(FeatureExtractWorkbench())

@@ -1,0 +1,237 @@
+"""The Extract task panel: presets and every parameter (with unit and help as tooltip), a background
+run with a progress bar and Cancel. The UI never waits on the computation: the core runs in a Python
+thread with the GIL released, and a timer polls its progress. When it succeeds, the results are
+created by a recorded `api.extract(...)` call (which takes the computed result from the cache)."""
+import threading
+
+import FreeCAD as App
+import FreeCADGui as Gui
+from PySide import QtCore, QtGui
+
+from . import translate
+
+PRESETS = {
+    "Balanced": {},
+    "Wide scale (0.5-3x)": {"scale_min": 0.5, "scale_max": 3.0, "axis_scale_min": 0.4, "axis_scale_max": 3.6,
+                                   "volume_ratio_min": 0.1, "volume_ratio_max": 40.0},
+    "Strict fit": {"accept_error": 0.03, "min_score": 0.8},
+    "Fast (coarser)": {"dense_spacing": 0.02, "sparse_spacing": 0.05, "ransac_patience": 300},
+}
+
+current = None  # the open panel (tests drive it)
+
+
+class ExtractPanel:
+    def __init__(self, target, references):
+        import featureextract as fx
+        global current
+        current = self
+        self.target = target
+        self.references = references
+        self.table = fx.param_table()
+        self.thread = None
+        self.cancel = False
+        self.progress = ("", 0.0)
+        self.outcome = None  # ("ok", result) / ("error", message) / ("cancelled", None)
+        self.finished = False
+        self.created = []
+
+        self.form = QtGui.QWidget()
+        self.form.setWindowTitle(translate("FeatureExtract", "Extract similar features"))
+        lay = QtGui.QVBoxLayout(self.form)
+        top = QtGui.QFormLayout()
+        top.addRow(translate("FeatureExtract", "Target"), QtGui.QLabel(target.Label))
+        self.ref_box = QtGui.QComboBox()
+        for i, r in enumerate(references):
+            self.ref_box.addItem(r.Label)
+            self.ref_box.setItemData(i, f"{len(r.Faces)} faces of {r.Source.Label if r.Source else '?'}", QtCore.Qt.ToolTipRole)
+        top.addRow(translate("FeatureExtract", "Reference"), self.ref_box)
+        self.preset = QtGui.QComboBox()
+        self.preset.addItems(list(PRESETS))
+        self.preset.currentIndexChanged.connect(self._apply_preset)
+        top.addRow(translate("FeatureExtract", "Preset"), self.preset)
+        lay.addLayout(top)
+
+        self.advanced = QtGui.QGroupBox(translate("FeatureExtract", "Advanced"))
+        self.advanced.setToolTip(translate("FeatureExtract", "Every parameter; lengths are fractions of L, the reference diagonal"))
+        self.advanced.setCheckable(True)
+        self.advanced.setChecked(False)
+        form = QtGui.QFormLayout()
+        self.fields = {}
+        for row in self.table:
+            if row["type"] == "bool":
+                w = QtGui.QCheckBox()
+                w.setChecked(row["default"] == "true")
+            elif row["type"] == "int":
+                w = QtGui.QSpinBox()
+                w.setRange(0, 2_000_000_000)
+                w.setValue(int(float(row["default"])))
+            else:
+                w = QtGui.QDoubleSpinBox()
+                w.setDecimals(4)
+                w.setRange(0.0, 1e6)
+                w.setSingleStep(0.01)
+                w.setValue(float(row["default"]))
+            tip = row["help"] + (f" [{row['unit']}]" if row["unit"] else "") + f" (default {row['default']})"
+            w.setToolTip(tip)
+            label = QtGui.QLabel(row["name"] + (f" ({row['unit']})" if row["unit"] else ""))
+            label.setToolTip(tip)
+            form.addRow(label, w)
+            self.fields[row["name"]] = w
+        inner = QtGui.QWidget()
+        inner.setLayout(form)
+        scroll = QtGui.QScrollArea()
+        scroll.setWidget(inner)
+        scroll.setWidgetResizable(True)
+        scroll.setMinimumHeight(200)
+        adv_lay = QtGui.QVBoxLayout(self.advanced)
+        adv_lay.addWidget(scroll)
+        self.advanced.toggled.connect(scroll.setVisible)
+        scroll.setVisible(False)
+        lay.addWidget(self.advanced)
+
+        self.bar = QtGui.QProgressBar()
+        self.bar.setRange(0, 100)
+        self.status = QtGui.QLabel(translate("FeatureExtract", "Ready."))
+        self.status.setWordWrap(True)
+        buttons = QtGui.QHBoxLayout()
+        self.run_button = QtGui.QPushButton(translate("FeatureExtract", "Run"))
+        self.cancel_button = QtGui.QPushButton(translate("FeatureExtract", "Cancel"))
+        self.cancel_button.setEnabled(False)
+        self.run_button.clicked.connect(self.run)
+        self.cancel_button.clicked.connect(self.request_cancel)
+        buttons.addWidget(self.run_button)
+        buttons.addWidget(self.cancel_button)
+        lay.addWidget(self.bar)
+        lay.addWidget(self.status)
+        lay.addLayout(buttons)
+        self.timer = QtCore.QTimer()
+        self.timer.setInterval(100)
+        self.timer.timeout.connect(self._poll)
+
+    # --- parameters
+    def _apply_preset(self):
+        values = PRESETS[self.preset.currentText()]
+        for row in self.table:
+            w = self.fields[row["name"]]
+            v = values.get(row["name"], row["default"])
+            if isinstance(w, QtGui.QCheckBox):
+                w.setChecked(v is True or v == "true")
+            elif isinstance(w, QtGui.QSpinBox):
+                w.setValue(int(float(v)))
+            else:
+                w.setValue(float(v))
+
+    def parameters(self):
+        """The parameters that differ from the engine's defaults."""
+        out = {}
+        for row in self.table:
+            w = self.fields[row["name"]]
+            if isinstance(w, QtGui.QCheckBox):
+                v, d = w.isChecked(), row["default"] == "true"
+            elif isinstance(w, QtGui.QSpinBox):
+                v, d = w.value(), int(float(row["default"]))
+            else:
+                v, d = round(w.value(), 6), float(row["default"])
+            if v != d:
+                out[row["name"]] = v
+        return out
+
+    # --- the run
+    def run(self):
+        from . import api
+        if self.thread is not None:
+            return
+        ref = self.references[self.ref_box.currentIndex()]
+        self.params = self.parameters()
+        try:
+            job = api.prepare(self.target, ref, **self.params)  # document access: main thread only
+        except Exception as e:  # noqa: BLE001
+            self._finish(("error", str(e)))
+            return
+        self.reference = ref
+        self.cancel = False
+        self.finished = False
+        self.outcome = None
+        self.run_button.setEnabled(False)
+        self.cancel_button.setEnabled(True)
+        self.status.setText(translate("FeatureExtract", "Running..."))
+
+        def progress(stage, fraction):
+            self.progress = (stage, fraction)
+            return not self.cancel
+
+        def work():
+            import featureextract as fx
+            try:
+                self.outcome = ("ok", api.run(job, progress))
+            except fx.Cancelled:
+                self.outcome = ("cancelled", None)
+            except Exception as e:  # noqa: BLE001
+                self.outcome = ("error", str(e))
+
+        self.thread = threading.Thread(target=work, daemon=True)
+        self.thread.start()
+        self.timer.start()
+
+    def request_cancel(self):
+        self.cancel = True
+        self.status.setText(translate("FeatureExtract", "Cancelling..."))
+
+    def _poll(self):
+        stage, fraction = self.progress
+        self.bar.setValue(int(100 * fraction))
+        if stage:
+            self.bar.setFormat(f"{stage} %p%")
+        if self.thread is not None and not self.thread.is_alive():
+            self.timer.stop()
+            self.thread = None
+            self._finish(self.outcome or ("error", "the run stopped without a result"))
+
+    def _finish(self, outcome):
+        kind, value = outcome
+        self.run_button.setEnabled(True)
+        self.cancel_button.setEnabled(False)
+        if kind == "ok":
+            args = ", ".join(f"{k}={v!r}" for k, v in sorted(self.params.items()))
+            t, r = self.target, self.reference
+            Gui.addModule("freecad.feature_extract.api")
+            try:
+                Gui.doCommand(f"freecad.feature_extract.api.extract(App.getDocument('{t.Document.Name}').getObject('{t.Name}'), "
+                              f"App.getDocument('{r.Document.Name}').getObject('{r.Name}'){', ' + args if args else ''})")
+                from . import api
+                self.created = api.results_for(t)
+                msg = translate("FeatureExtract", "{n} similar feature(s) found in {s:.1f} s.").format(
+                    n=len(value.matches), s=sum(x for _, x in value.timings))
+                self.bar.setValue(100)
+            except Exception as e:  # noqa: BLE001
+                kind, msg = "error", str(e)
+        elif kind == "cancelled":
+            msg = translate("FeatureExtract", "Cancelled; the document was not changed.")
+            self.bar.setValue(0)
+        else:
+            msg = value
+        self.status.setText(msg)
+        if kind == "error":
+            from .commands import report_error
+            report_error(msg)
+        else:
+            App.Console.PrintMessage("FeatureExtract: " + msg + "\n")
+        self.finished = True
+
+    # --- task dialog protocol
+    def getStandardButtons(self):
+        return int(QtGui.QDialogButtonBox.Close)
+
+    def reject(self):
+        global current
+        if self.thread is not None:
+            self.cancel = True
+            self.thread.join(timeout=30)
+        self.timer.stop()
+        Gui.Control.closeDialog()
+        current = None
+        return True
+
+    def accept(self):
+        return self.reject()

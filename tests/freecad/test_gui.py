@@ -1,0 +1,166 @@
+"""GUI test of the workbench (issue 3), under a virtual display:
+  FE_MODELS=... FE_WB=... FE_SHOT=out.png QTWEBENGINE_DISABLE_SANDBOX=1 \
+    xvfb-run -a -s "-screen 0 1280x1024x24" freecad tests/freecad/test_gui.py
+Activates the workbench, picks a reference from faces, runs the Extract task panel in the background
+(and cancels one run), checks the results, the colors on screen and the messages on bad input, saves
+a screenshot. Exits 0 when all checks pass (FreeCAD does not exit by itself)."""
+import os
+import sys
+import time
+import traceback
+
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what)
+    sys.stdout.flush()
+    if not cond:
+        failures.append(what)
+
+
+def main():
+    sys.path.insert(0, os.environ["FE_WB"])
+    import freecad
+    if os.path.join(os.environ["FE_WB"], "freecad") not in freecad.__path__:
+        freecad.__path__.append(os.path.join(os.environ["FE_WB"], "freecad"))
+    import FreeCAD as App
+    import FreeCADGui as Gui
+    import Part
+    from PySide import QtGui
+
+    if "FeatureExtractWorkbench" in Gui.listWorkbenches():
+        print("note: the workbench was loaded at start-up from the user's Mod folder")
+    else:  # not installed for this user: register it the way FreeCAD does at start-up
+        import freecad.feature_extract.init_gui  # noqa: F401
+    Gui.activateWorkbench("FeatureExtractWorkbench")
+    check(Gui.activeWorkbench().name() == "FeatureExtractWorkbench", "workbench activates")
+    from freecad.feature_extract import api, commands, taskpanel
+    commands.INTERACTIVE = False
+
+    def wait_for(cond, seconds):
+        end = time.time() + seconds
+        ticks = 0
+        while not cond() and time.time() < end:
+            QtGui.QApplication.processEvents()
+            time.sleep(0.02)
+            ticks += 1
+        return ticks
+
+    doc = App.newDocument("gui_test")
+    part = doc.addObject("Part::Feature", "Part")
+    part.Shape = Part.read(os.path.join(os.environ["FE_MODELS"], "ribs_bosses.step"))
+    doc.recompute()
+    Gui.SendMsgToActiveView("ViewFit")
+
+    # bad input: nothing selected, an edge selected -> a message, no change
+    n0 = len(doc.Objects)
+    Gui.Selection.clearSelection()
+    Gui.runCommand("FE_PickReference")
+    check(commands.last_error is not None and "Select" in commands.last_error, "no selection: clear message")
+    commands.last_error = None
+    Gui.Selection.addSelection(part, ["Edge1"])
+    Gui.runCommand("FE_PickReference")
+    check(commands.last_error is not None and "Edge1" in commands.last_error, "edge selected: clear message")
+    commands.last_error = None
+    Gui.Selection.clearSelection()
+    Gui.runCommand("FE_Extract")
+    check(commands.last_error is not None and "reference" in commands.last_error, "extract without reference: message")
+    check(len(doc.Objects) == n0, "document unchanged after bad input")
+
+    # pick the first rib's faces as reference
+    faces = [f"Face{i}" for i, f in enumerate(part.Shape.Faces, 1)
+             if f.BoundBox.XMin >= 17 and f.BoundBox.XMax <= 33 and f.BoundBox.ZMin > -1e-3 and f.BoundBox.ZMax > 0.5]
+    Gui.Selection.addSelection(part, faces)
+    Gui.runCommand("FE_PickReference")
+    refs = [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
+    check(len(refs) == 1 and list(refs[0].Faces) == faces, f"reference made from {len(faces)} picked faces")
+
+    # the samples/key points overlay toggles
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(part)
+    from freecad.feature_extract import overlay
+    Gui.runCommand("FE_Tessellate")
+    check(overlay.shown(part), "tessellate overlay shown")
+    Gui.runCommand("FE_Tessellate")
+    check(not overlay.shown(part), "tessellate overlay toggled off")
+
+    # extract through the task panel, cancel one run first
+    Gui.runCommand("FE_Extract")
+    panel = taskpanel.current
+    check(panel is not None, "extract task panel opens")
+    n1 = len(doc.Objects)
+    panel.run()
+    panel.request_cancel()
+    wait_for(lambda: panel.finished, 60)
+    check(panel.finished and panel.outcome[0] == "cancelled", "cancel stops the run")
+    check(len(doc.Objects) == n1, "cancelled run leaves the document unchanged")
+    panel.run()
+    ticks = wait_for(lambda: panel.finished, 120)
+    check(panel.finished and panel.outcome[0] == "ok", f"run finishes: {panel.status.text()}")
+    check(ticks > 10, f"UI kept processing events during the run ({ticks} polls)")
+    results = api.results_for(part)
+    check(len(results) == 5, f"5 result objects ({len(results)})")
+    if os.environ.get("FE_WINDOW_SHOT"):  # the whole window with the task panel, for the docs
+        Gui.Selection.clearSelection()
+        Gui.ActiveDocument.ActiveView.viewIsometric()
+        Gui.SendMsgToActiveView("ViewFit")
+        wait_for(lambda: False, 0.5)
+        mw = Gui.getMainWindow()  # from the X screen: a widget grab misses the OpenGL view
+        QtGui.QApplication.primaryScreen().grabWindow(mw.winId()).save(os.environ["FE_WINDOW_SHOT"])
+    panel.reject()
+
+    # colors on the target and on screen
+    wait_for(lambda: False, 0.5)  # let the deferred recolor run
+    colors = part.ViewObject.DiffuseColor
+    check(len(colors) == len(part.Shape.Faces), "one color per face")
+    for r in results:
+        check(all(abs(colors[f - 1][k] - r.Color[k]) < 0.02 for f in r.Faces for k in range(3)), f"{r.Label}: faces colored")
+    Gui.Selection.clearSelection()  # the selection highlight would cover the colors
+    view = Gui.ActiveDocument.ActiveView
+    view.viewIsometric()
+    view.fitAll()
+    wait_for(lambda: False, 0.3)
+    w, h = view.getSize()
+    shot = os.environ.get("FE_SHOT", "gui_screenshot.png")
+    view.saveImage(shot, w, h, "White")
+    img = QtGui.QImage(shot)
+    check(not img.isNull(), f"screenshot saved ({w}x{h})")
+    for r in results:
+        x, y = view.getPointOnScreen(r.Center)
+        y_img = h - 1 - y  # getPointOnScreen counts y from the bottom
+        target = r.Color[:3]
+        grey = part.ViewObject.ShapeColor[:3]
+        votes = 0
+        for dx in (-3, 0, 3):
+            for dy in (-3, 0, 3):
+                c = QtGui.QColor(img.pixel(int(x + dx), int(y_img + dy)))
+                px = (c.redF(), c.greenF(), c.blueF())
+                # shading darkens: compare chromaticity (normalized color) with the match color and grey
+                s = sum(px) or 1.0
+                d_match = sum((px[k] / s - target[k] / sum(target)) ** 2 for k in range(3))
+                d_grey = sum((px[k] / s - grey[k] / sum(grey)) ** 2 for k in range(3))
+                votes += d_match < d_grey
+        check(votes >= 5, f"{r.Label}: pixels at its center carry its color ({votes}/9)")
+
+    # selecting a result selects its faces; clearing colors
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(results[0])
+    wait_for(lambda: False, 0.3)
+    sel = [s for s in Gui.Selection.getSelectionEx() if s.Object == part]
+    check(bool(sel) and set(sel[0].SubElementNames) == {f"Face{f}" for f in results[0].Faces}, "result selects its faces")
+    Gui.runCommand("FE_ClearColors")
+    wait_for(lambda: False, 0.3)
+    base = part.ViewObject.ShapeColor[:3]
+    check(all(abs(c[k] - base[k]) < 0.02 for c in part.ViewObject.DiffuseColor for k in range(3)), "colors cleared")
+    check(len(api.results_for(part)) == 5, "results kept after clearing colors")
+
+
+try:
+    main()
+except Exception:
+    traceback.print_exc()
+    failures.append("exception")
+print(f"{0 if failures else 1} passed, {1 if failures else 0} failed: gui")
+sys.stdout.flush()
+os._exit(1 if failures else 0)
