@@ -387,6 +387,9 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   };
 
   const bool debug = std::getenv("FE_DEBUG") != nullptr;  // trace of every RANSAC outcome on stderr
+  const KdTree3 tkey_tree(T.keys);
+  std::vector<int> near_keys;
+  std::vector<float> near_d2;
   std::vector<Instance> found;
   std::uint64_t run = 0;
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
@@ -528,12 +531,23 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         if (nm.normalized().dot(T.dense_normals.row(j)) > 0.5) ++on;
       }
       const double score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows.size()));
-      const bool accepted = err <= p.accept_error * L && score >= p.min_score;
+      // Key point agreement (paper's shape index, used as a check): the reference key points must land
+      // near target key points of a similar shape index, not on plain or differently curved surface.
+      int agree = 0;
+      for (Eigen::Index i = 0; i < R.keys.rows(); ++i) {
+        const Eigen::Vector3d y = apply_transform(H, R.keys.row(i).transpose());
+        tkey_tree.radius(y, tol + T.sparse_h, near_keys, near_d2);
+        bool ok = false;
+        for (int j : near_keys) ok = ok || std::abs(T.key_si(j) - R.key_si(i)) <= p.key_si_tolerance;
+        agree += ok ? 1 : 0;
+      }
+      const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<Eigen::Index>(1, R.keys.rows()));
+      const bool accepted = err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
       if (debug) {
         const Deformation df = deformation(H, rlo, rhi);
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
-        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",
-                     order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, df.volume_ratio, df.scale_min, df.scale_max,
+        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",
+                     order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
                      df.perspective, rr.iterations, accepted ? "accepted" : "rejected");
         const Eigen::Vector3d rc = 0.5 * (rlo + rhi);
         const Eigen::Matrix3d J = jacobian(H, rc);
@@ -544,7 +558,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       // Pairs whose target point this hypothesis explains are removed either way; on rejection only
       // those around its sample, so the next search looks elsewhere.
       KdTree3 mtree(mapped);
-      const double reach = accepted ? std::max(2 * tol, 2 * T.sparse_h) : 0.25 * L * s;
+      const double reach = accepted ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
       std::vector<KeyPointPair> rest;
       for (std::size_t i = 0; i < pairs.size(); ++i) {
         bool drop;

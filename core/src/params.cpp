@@ -50,6 +50,8 @@ const std::vector<Entry>& entries() {
       {"error_quantile", &Params::error_quantile, "", "error of a transform: 1 = maximum over reference key points (paper), <1 = that quantile", 0.5, 1},
       {"accept_error", &Params::accept_error, "x L x scale", "a transform is accepted if its error is at most this", 1e-4, 10},
       {"min_score", &Params::min_score, "", "a transform is accepted if this fraction of the mapped reference lies on the target", 0, 1},
+      {"min_key_agreement", &Params::min_key_agreement, "", "a transform is accepted if this fraction of the reference key points lands near target key points of similar shape index", 0, 1},
+      {"key_si_tolerance", &Params::key_si_tolerance, "", "shape index difference allowed for key point agreement", 0, 1},
       {"volume_ratio_min", &Params::volume_ratio_min, "", "lower bound of the volume expansion ratio |det J|", 0, 1e6},
       {"volume_ratio_max", &Params::volume_ratio_max, "", "upper bound of the volume expansion ratio |det J|", 0, 1e6},
       {"axis_scale_min", &Params::axis_scale_min, "", "lower bound of every principal stretch (singular value of J)", 0, 1e3},
