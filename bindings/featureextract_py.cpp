@@ -37,8 +37,10 @@ fe::ProgressFn make_progress(const py::object& fn, PyProgress*& holder, std::sha
   return [keep](const std::string& s, double f) { return (*keep)(s, f); };
 }
 
+// Runs body(progress_fn) with the GIL released; a cancellation caused by an exception inside the
+// Python callback re-raises that exception.
 template <typename F>
-fe::Result run_released(const py::object& progress, F&& body) {
+auto run_released(const py::object& progress, F&& body) -> decltype(body(fe::ProgressFn{})) {
   PyProgress* holder = nullptr;
   std::shared_ptr<PyProgress> keep;
   const fe::ProgressFn pf = make_progress(progress, holder, keep);
@@ -216,16 +218,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("warnings", &fe::ShapeDescription::warnings);
   m.def("describe", [](const fe::TriangleMesh& mesh, fe::ShapeDescription::Role role, double feature_size, const fe::Params& p,
                        const py::object& progress) {
-        PyProgress* holder = nullptr;
-        std::shared_ptr<PyProgress> keep;
-        const fe::ProgressFn pf = make_progress(progress, holder, keep);
-        try {
-          py::gil_scoped_release release;
-          return fe::describe(mesh, role, feature_size, p, pf);
-        } catch (const fe::Cancelled&) {
-          if (holder && holder->error) throw *holder->error;
-          throw;
-        }
+        return run_released(progress, [&](const fe::ProgressFn& pf) { return fe::describe(mesh, role, feature_size, p, pf); });
       },
       py::arg("mesh"), py::arg("role"), py::arg("feature_size"), py::arg("params") = fe::Params{}, py::arg("progress") = py::none(),
       "Steps 1-3 for one shape (feature_size = L, the reference diagonal); for display and inspection.");

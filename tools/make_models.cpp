@@ -61,6 +61,17 @@ struct Boss {
   double x, y, r = 6, h = 12, r_top = 1.0, r_root = 1.5;
 };
 
+struct Box {
+  double x0, y0, z0, x1, y1, z1;
+};
+Box bbox(const TopoDS_Shape& s) {
+  Bnd_Box b;
+  BRepBndLib::Add(s, b);
+  Box r;
+  b.Get(r.x0, r.y0, r.z0, r.x1, r.y1, r.z1);
+  return r;
+}
+
 [[noreturn]] void die(const std::string& m) {
   std::cerr << "fe_make_models: " << m << "\n";
   std::exit(1);
@@ -80,10 +91,7 @@ TopoDS_Shape rib_solid(const Rib& r) {
   // fillet the top edges and the vertical end edges (everything above z = 0)
   BRepFilletAPI_MakeFillet fil(prism);
   for (TopExp_Explorer e(prism, TopAbs_EDGE); e.More(); e.Next()) {
-    Bnd_Box b;
-    BRepBndLib::Add(e.Current(), b);
-    double x0, y0, z0, x1, y1, z1;
-    b.Get(x0, y0, z0, x1, y1, z1);
+    const auto [x0, y0, z0, x1, y1, z1] = bbox(e.Current());
     if (z0 > 0.0) fil.Add(r.r_top * s, TopoDS::Edge(e.Current()));                    // top edges
     else if (z1 > h * 0.5 && std::abs(y1 - y0) < 1e-3) fil.Add(r.r_top * s, TopoDS::Edge(e.Current()));  // end edges
   }
@@ -98,11 +106,7 @@ TopoDS_Shape boss_solid(const Boss& b) {
   TopoDS_Shape c = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(b.x, b.y, -0.5), gp::DZ()), b.r, b.h + 0.5).Shape();
   BRepFilletAPI_MakeFillet fil(c);
   for (TopExp_Explorer e(c, TopAbs_EDGE); e.More(); e.Next()) {
-    Bnd_Box bb;
-    BRepBndLib::Add(e.Current(), bb);
-    double x0, y0, z0, x1, y1, z1;
-    bb.Get(x0, y0, z0, x1, y1, z1);
-    if (z0 > b.h - 1e-3) fil.Add(b.r_top, TopoDS::Edge(e.Current()));
+    if (bbox(e.Current()).z0 > b.h - 1e-3) fil.Add(b.r_top, TopoDS::Edge(e.Current()));
   }
   fil.Build();
   if (!fil.IsDone()) die("boss fillet failed");
@@ -118,10 +122,7 @@ TopoDS_Shape part(double sx, double sy, const std::vector<Rib>& ribs, const std:
   BRepFilletAPI_MakeFillet fil(s);
   int n = 0;
   for (TopExp_Explorer e(s, TopAbs_EDGE); e.More(); e.Next()) {
-    Bnd_Box b;
-    BRepBndLib::Add(e.Current(), b);
-    double x0, y0, z0, x1, y1, z1;
-    b.Get(x0, y0, z0, x1, y1, z1);
+    const auto [x0, y0, z0, x1, y1, z1] = bbox(e.Current());
     const bool at_top = std::abs(z0) < 1e-4 && std::abs(z1) < 1e-4;
     const bool boundary = x0 < 1e-4 || y0 < 1e-4 || x1 > sx - 1e-4 || y1 > sy - 1e-4;
     if (!at_top || boundary) continue;
@@ -156,10 +157,7 @@ TopoDS_Shape cut_faces(const TopoDS_Shape& s, double x0, double y0, double x1, d
   TopExp::MapShapes(s, TopAbs_FACE, faces);
   int n = 0;
   for (int i = 1; i <= faces.Extent(); ++i) {
-    Bnd_Box bb;
-    BRepBndLib::Add(faces(i), bb);
-    double a0, b0, c0, a1, b1, c1;
-    bb.Get(a0, b0, c0, a1, b1, c1);
+    const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
     if (c1 < 1e-3) continue;  // plate top and bottom
     if (c0 < -1e-3) continue; // plate sides
     if (a0 < x0 || a1 > x1 || b0 < y0 || b1 > y1) continue;

@@ -19,6 +19,15 @@ def report_error(message):
         QtGui.QMessageBox.warning(Gui.getMainWindow(), translate("FeatureExtract", "FeatureExtract"), message)
 
 
+def _do(command):
+    """Runs (and records for macros) one API call; a failure becomes a message, not a traceback."""
+    Gui.addModule("freecad.feature_extract.api")
+    try:
+        Gui.doCommand(command)
+    except Exception as e:  # noqa: BLE001
+        report_error(str(e))
+
+
 def _selected_solid():
     sel = Gui.Selection.getSelectionEx()
     for s in sel:
@@ -92,12 +101,8 @@ class PickReference:
         if bad:
             report_error(translate("FeatureExtract", "Only faces can make a reference; the selection has ") + ", ".join(bad))
             return
-        Gui.addModule("freecad.feature_extract.api")
-        try:
-            Gui.doCommand(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
-                          f".getObject('{obj.Name}'), {names!r})")
-        except Exception as e:  # noqa: BLE001
-            report_error(str(e))
+        _do(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
+            f".getObject('{obj.Name}'), {names!r})")
 
 
 class SaveReference:
@@ -116,12 +121,8 @@ class SaveReference:
                                                     refs[0].Label + ".brep", "BREP (*.brep *.brp)")
         if not path:
             return
-        Gui.addModule("freecad.feature_extract.api")
-        try:
-            Gui.doCommand(f"freecad.feature_extract.api.save_reference(App.getDocument('{refs[0].Document.Name}')"
-                          f".getObject('{refs[0].Name}'), {path!r})")
-        except Exception as e:  # noqa: BLE001
-            report_error(str(e))
+        _do(f"freecad.feature_extract.api.save_reference(App.getDocument('{refs[0].Document.Name}')"
+            f".getObject('{refs[0].Name}'), {path!r})")
 
 
 class Extract:

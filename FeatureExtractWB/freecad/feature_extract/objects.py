@@ -5,7 +5,20 @@ import FreeCAD as App
 from . import icon
 
 
-class ReferenceFeature:
+class _Stateless:
+    """Proxies keep everything in properties: nothing of their own to save or restore."""
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+    def onDocumentRestored(self, obj):
+        obj.Proxy = self
+
+
+class ReferenceFeature(_Stateless):
     """A reference feature: a list of faces (FaceN) of a source solid. Its Shape is their compound."""
 
     def __init__(self, obj):
@@ -18,17 +31,8 @@ class ReferenceFeature:
         if obj.Source is not None and obj.Faces:
             obj.Shape = reference_shape(obj)
 
-    def onDocumentRestored(self, obj):
-        obj.Proxy = self
 
-    def dumps(self):
-        return None
-
-    def loads(self, state):
-        return None
-
-
-class ExtractionResult:
+class ExtractionResult(_Stateless):
     """One found instance of a reference on a target (issue 2's result fields)."""
 
     def __init__(self, obj):
@@ -48,15 +52,6 @@ class ExtractionResult:
 
     def execute(self, obj):
         pass
-
-    def onDocumentRestored(self, obj):
-        obj.Proxy = self
-
-    def dumps(self):
-        return None
-
-    def loads(self, state):
-        return None
 
 
 def face_names(result_obj):
@@ -95,7 +90,7 @@ def clear_colors(target_obj):
         vo.DiffuseColor = [tuple(vo.ShapeColor[:3]) + (0.0,)] * len(target_obj.Shape.Faces)
 
 
-class ViewProviderReference:
+class ViewProviderReference(_Stateless):
     def __init__(self, vobj):
         vobj.Proxy = self
         vobj.ShapeColor = (1.0, 0.85, 0.0)
@@ -110,14 +105,8 @@ class ViewProviderReference:
     def getIcon(self):
         return icon("PickReference")
 
-    def dumps(self):
-        return None
 
-    def loads(self, state):
-        return None
-
-
-class ViewProviderResult:
+class ViewProviderResult(_Stateless):
     """Shows a result as colored faces on its target; hiding it removes its color."""
 
     def __init__(self, vobj):
@@ -152,12 +141,6 @@ class ViewProviderResult:
     def doubleClicked(self, vobj):
         select_faces(vobj.Object)
         return True
-
-    def dumps(self):
-        return None
-
-    def loads(self, state):
-        return None
 
 
 def select_faces(result_obj):
