@@ -33,7 +33,7 @@ cmake --build "$BUILD" -j2
 
 # The FreeCAD workbench: a link in the user's Mod folder (FreeCAD 0.20's XDG location). It finds the
 # Python module in $BUILD/python through the link's real path.
-MOD="${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"
+MOD="${XDG_DATA_HOME:-${HOME:-/root}/.local/share}/FreeCAD/Mod"
 mkdir -p "$MOD"
 ln -sfn "$(pwd)/FeatureExtractWB" "$MOD/FeatureExtract"
 echo "setup: FreeCAD workbench linked: $MOD/FeatureExtract -> $(pwd)/FeatureExtractWB"
