@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+#include <unordered_map>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -138,9 +139,22 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   const Eigen::MatrixX2d k = principal_curvatures(d->dense.points, d->dense_normals, sparse.points, sparse_normals, p.curvature_radius * L);
   std::vector<Eigen::Index> key;
   std::vector<double> key_si;
+  // Ridge and rut points (cylinders: holes, lugs, bosses, fillets) are not key points in the paper;
+  // with ridge_rut_spacing > 0 they are kept too, thinned to one per cube of that size, so that
+  // features made of cylinders still have key points without flooding the matching.
+  std::unordered_map<std::uint64_t, char> ridge_cells;
+  const double ridge_h = p.ridge_rut_spacing * L;
+  const Eigen::Vector3d origin = sparse.points.size() ? Eigen::Vector3d(sparse.points.colwise().minCoeff()) : Eigen::Vector3d::Zero();
   for (Eigen::Index i = 0; i < k.rows(); ++i) {
     const double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
-    if (is_key_shape_index(si, p.si_band)) {
+    bool take = is_key_shape_index(si, p.si_band);
+    if (!take && ridge_h > 0 && si >= 0) {
+      const Eigen::Vector3d g = ((sparse.points.row(i).transpose() - origin) / ridge_h).array().floor();
+      const std::uint64_t cell = (static_cast<std::uint64_t>(g.x()) & 0x1FFFFF) << 42 |
+                                 (static_cast<std::uint64_t>(g.y()) & 0x1FFFFF) << 21 | (static_cast<std::uint64_t>(g.z()) & 0x1FFFFF);
+      take = ridge_cells.emplace(cell, 1).second;
+    }
+    if (take) {
       key.push_back(i);
       key_si.push_back(si);
     }
@@ -681,7 +695,7 @@ void check_sizes(const TriangleMesh& reference, const TriangleMesh& target, cons
 std::string description_key(double L, const Params& p) {
   std::ostringstream k;
   k.precision(17);
-  k << L << ' ' << p.seed << ' ' << p.dense_spacing << ' ' << p.sparse_spacing << ' ' << p.max_dense_points << ' '
+  k << L << ' ' << p.seed << ' ' << p.ridge_rut_spacing << ' ' << p.dense_spacing << ' ' << p.sparse_spacing << ' ' << p.max_dense_points << ' '
     << p.normal_radius << ' ' << p.curvature_radius << ' ' << p.planar_curvedness << ' ' << p.shot_radius << ' '
     << p.shot_radii << ' ' << p.shot_radius_ratio << ' ' << p.scale_min << ' ' << p.scale_max << ' ' << p.si_band;
   return k.str();

@@ -14,6 +14,7 @@ PRESETS = {
     "Balanced": {},
     "Wide scale (0.5-3x)": {"scale_min": 0.5, "scale_max": 3.0, "axis_scale_min": 0.4, "axis_scale_max": 3.6,
                                    "volume_ratio_min": 0.1, "volume_ratio_max": 40.0},
+    "Cylindrical (holes, lugs)": {"ridge_rut_spacing": 0.05},
     "Strict fit": {"accept_error": 0.03, "min_score": 0.8},
     "Fast (coarser)": {"dense_spacing": 0.02, "sparse_spacing": 0.05, "ransac_patience": 300},
 }
