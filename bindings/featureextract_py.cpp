@@ -61,8 +61,7 @@ fe::TriangleMesh mesh_from_arrays(const fe::Points& v, const fe::Triangles& t, c
   m.source = name;
   if (faces) {
     if (faces->size() != t.rows()) throw fe::InputError(name + ": face_ids has " + std::to_string(faces->size()) + " entries for " + std::to_string(t.rows()) + " triangles");
-    m.face_ids = *faces;
-    m.num_faces = faces->size() ? faces->maxCoeff() : 0;
+    m.face_ids = *faces;  // range-checked by validate_mesh
   }
   fe::validate_mesh(m);
   return m;

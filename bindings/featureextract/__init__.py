@@ -7,7 +7,7 @@ core (`featureextract._core`); the same function serves the CLI, the FreeCAD wor
     import featureextract as fx
     ref = fx.read_shape("rib.step")
     tgt = fx.read_target("part.step", ref)          # tessellated finely enough for the feature
-    result = fx.extract(ref, tgt, fx.Params(seed=2))
+    result = fx.extract(ref, tgt, fx.make_params(seed=2))
     for m in result.matches:
         print(m.score, m.center, m.faces)
 

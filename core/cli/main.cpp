@@ -125,8 +125,16 @@ int main(int argc, char** argv) {
   }
   const std::string tmp = out_path + ".tmp";
   {
+    std::string text;
+    try {
+      text = fe::result_to_json(result);
+    } catch (const std::exception& e) {
+      std::cerr << "featureextract: " << out_path << ": cannot encode the result: " << e.what() << "\n";
+      return 1;
+    }
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << fe::result_to_json(result) << "\n";
+    out << text << "\n";
+    out.close();
     if (!out) {
       std::cerr << "featureextract: " << out_path << ": cannot write output\n";
       std::remove(tmp.c_str());

@@ -72,7 +72,14 @@ TriangleMesh tessellate(const TopoDS_Shape& shape, const TessellationOptions& o,
   box.Get(x0, y0, z0, x1, y1, z1);
   const double diag = std::sqrt((x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0) + (z1 - z0) * (z1 - z0));
   if (!(diag > 0) || !std::isfinite(diag)) fail(name, "shape has zero or infinite size");
+  if (!(std::isfinite(o.relative_deflection) && o.relative_deflection > 0) || !std::isfinite(o.absolute_deflection) ||
+      o.absolute_deflection < 0 || !(std::isfinite(o.angular_deflection) && o.angular_deflection > 0))
+    fail(name, "tessellation deflections must be finite and positive (relative " + std::to_string(o.relative_deflection) +
+                   ", absolute " + std::to_string(o.absolute_deflection) + ", angular " +
+                   std::to_string(o.angular_deflection) + ")");
   double defl = o.relative_deflection * diag;
+  // a deflection far below the shape size would make BRepMesh run for hours: bound the triangle count
+  defl = std::max(defl, 1e-5 * diag);
   if (o.absolute_deflection > 0) defl = std::min(defl, o.absolute_deflection);
   BRepMesh_IncrementalMesh mesher(shape, defl, Standard_False, o.angular_deflection, Standard_True);
   if (!mesher.IsDone()) fail(name, "OpenCASCADE could not tessellate the shape");

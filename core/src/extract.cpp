@@ -532,9 +532,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       Points mapped(static_cast<Eigen::Index>(dense_rows.size()), 3);
       int on = 0;
       double sq = 0;
+      bool finite_map = true;  // false when H's plane at infinity cuts the reference feature
       for (std::size_t k = 0; k < dense_rows.size(); ++k) {
         const Eigen::Vector3d x = R.dense.points.row(dense_rows[k]);
         const Eigen::Vector3d y = apply_transform(H, x);
+        finite_map = finite_map && y.allFinite();
         mapped.row(static_cast<Eigen::Index>(k)) = y;
         int j;
         const double e = surface_distance(T, y, &j);
@@ -556,7 +558,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         agree += ok ? 1 : 0;
       }
       const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<Eigen::Index>(1, R.keys.rows()));
-      const bool accepted = err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
+      const bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
       if (debug) {
         const Deformation df = deformation(H, rlo, rhi);
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
@@ -666,11 +668,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
     if (!dup) kept.push_back(&f);
   }
   for (const Instance* k : kept) res.matches.push_back(k->match);
-  // Stable order for the user: by position (x, then y, then z).
+  // Stable order for the user: by position (x, then y, then z), then score (a strict weak order).
   std::sort(res.matches.begin(), res.matches.end(), [](const Match& a, const Match& b) {
     for (int i = 0; i < 3; ++i)
-      if (std::abs(a.center[i] - b.center[i]) > 1e-9) return a.center[i] < b.center[i];
-    return false;
+      if (a.center[i] != b.center[i]) return a.center[i] < b.center[i];
+    return a.score > b.score;
   });
   res.timings.push_back({"result", sw.lap()});
   report(progress, "done", 1);
@@ -710,14 +712,17 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
   const double L = reference.diagonal();
   const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
   const std::string key = description_key(L, params);
-  const ShapeDescription* t = nullptr;
-  for (const auto& c : cache_)
-    if (c.first == key) t = &c.second;
-  if (!t) {
-    cache_.emplace_back(key, describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
-    ++built_;
-    if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
-    t = &cache_.back().second;
+  std::shared_ptr<const ShapeDescription> t;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
+    for (const auto& c : cache_)
+      if (c.first == key) t = c.second;
+    if (!t) {
+      t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
+      cache_.emplace_back(key, t);
+      ++built_;
+      if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
+    }
   }
   return match(r, *t, mesh_, params, progress);
 }

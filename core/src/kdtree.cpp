@@ -2,6 +2,7 @@
 // queries of normals, curvature and RANSAC scoring). PCL's own tree is used only inside SHOT.
 #include "kdtree.h"
 
+#include <cmath>
 #include <nanoflann.hpp>
 
 #include <limits>
@@ -27,7 +28,12 @@ struct KdTree3::Impl {
 KdTree3::KdTree3(const Points& p) : impl_(new Impl), n_(static_cast<std::size_t>(p.rows())) {
   impl_->cloud.xyz.resize(3 * n_);
   for (std::size_t i = 0; i < n_; ++i)
-    for (int d = 0; d < 3; ++d) impl_->cloud.xyz[3 * i + static_cast<std::size_t>(d)] = static_cast<float>(p(static_cast<Eigen::Index>(i), d));
+    for (int d = 0; d < 3; ++d) {
+      const double x = p(static_cast<Eigen::Index>(i), d);
+      // a non-finite point (a projective map's point at infinity) must not corrupt the tree: it goes
+      // so far away that no query finds it
+      impl_->cloud.xyz[3 * i + static_cast<std::size_t>(d)] = std::isfinite(x) ? static_cast<float>(x) : 1e30f;
+    }
   if (n_ > 0) {
     impl_->index = std::make_unique<Index>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     impl_->index->buildIndex();

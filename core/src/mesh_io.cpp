@@ -305,10 +305,15 @@ std::size_t orient_consistently(TriangleMesh& m) {
       edges[a < b ? (a << 32 | b) : (b << 32 | a)].push_back({static_cast<int>(t), a < b});
     }
   std::vector<std::vector<std::pair<int, bool>>> adj(static_cast<std::size_t>(T));  // neighbour, same direction?
-  for (const auto& e : edges) {
-    if (e.second.size() != 2) continue;  // boundary or non-manifold edge: no constraint
-    const auto& x = e.second[0];
-    const auto& y = e.second[1];
+  std::vector<std::uint64_t> keys;  // sorted: the walk below must not depend on hash order
+  keys.reserve(edges.size());
+  for (const auto& e : edges) keys.push_back(e.first);
+  std::sort(keys.begin(), keys.end());
+  for (const std::uint64_t key : keys) {
+    const auto& uses = edges[key];
+    if (uses.size() != 2) continue;  // boundary or non-manifold edge: no constraint
+    const auto& x = uses[0];
+    const auto& y = uses[1];
     adj[static_cast<std::size_t>(x.first)].push_back({y.first, x.second == y.second});
     adj[static_cast<std::size_t>(y.first)].push_back({x.first, x.second == y.second});
   }
@@ -352,6 +357,14 @@ void validate_mesh(TriangleMesh& m) {
   const std::string& name = m.source.empty() ? std::string("<mesh>") : m.source;
   if (m.vertices.rows() == 0 || m.triangles.rows() == 0) fail(name, "no triangles");
   if (m.face_ids.size() != m.triangles.rows()) m.face_ids = Eigen::VectorXi::Zero(m.triangles.rows());
+  if (m.face_ids.size() > 0) {
+    // face ids are 1-based FaceN numbers (0 = none); the face tables are sized by the largest one
+    const int lo = m.face_ids.minCoeff(), hi = m.face_ids.maxCoeff();
+    if (lo < 0) fail(name, "negative face id " + std::to_string(lo));
+    if (hi > std::max<Eigen::Index>(m.triangles.rows(), m.num_faces)) fail(name, "face id " + std::to_string(hi) + " exceeds the triangle count (" +
+                                                std::to_string(m.triangles.rows()) + "): ids must number faces 1..n");
+    m.num_faces = std::max(m.num_faces, hi);
+  }
   for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
     if (!m.vertices.row(i).allFinite())
       fail(name, "non-finite (NaN or infinite) coordinate at vertex " + std::to_string(i + 1));

@@ -24,32 +24,41 @@ std::vector<KeyPointPair> shot_pairs(const ShotSet& ref, const ShotSet& tgt, int
   for (std::size_t a = 0; a < rrows.size(); ++a) R.row(static_cast<Eigen::Index>(a)) = ref.desc.row(rrows[a]).head(W);
   const Eigen::VectorXf rn = R.rowwise().squaredNorm();
 
-  const Eigen::Index chunk = 1024;
+  // Chunks of target rows run in parallel, each with a single-threaded product (Eigen's own threading
+  // is off, EIGEN_DONT_PARALLELIZE: its blocking depends on the thread count, and so would the float
+  // sums and the chosen pairs; this way the result is the same for any number of threads).
+  const Eigen::Index chunk = 256;
+  const Eigen::Index nchunks = (Kt + chunk - 1) / chunk, batch = 8;
   const int shifts = D + U + 1;
   std::vector<std::vector<std::pair<float, std::pair<int, int>>>> cand(static_cast<std::size_t>(Kt));
-  for (Eigen::Index c0 = 0; c0 < Kt; c0 += chunk) {
-    const Eigen::Index n = std::min(chunk, Kt - c0);
-    for (int s = 0; s < shifts; ++s) {  // window starts at target radius index s (shift s - D)
-      if (s + m > tgt.valid.cols()) break;
-      Eigen::MatrixXf T = tgt.desc.block(c0, static_cast<Eigen::Index>(kShotSize) * s, n, W);
-      const Eigen::VectorXf tn = T.rowwise().squaredNorm();
-      const Eigen::MatrixXf dot = T * R.transpose();  // n x Kr'
-      for (Eigen::Index i = 0; i < n; ++i) {
-        if (!tgt.valid.row(c0 + i).segment(s, m).all()) continue;
-        auto& cs = cand[static_cast<std::size_t>(c0 + i)];
-        for (Eigen::Index a = 0; a < dot.cols(); ++a) {
-          const float d2 = std::max(0.0f, tn(i) + rn(a) - 2 * dot(i, a));
-          cs.push_back({d2, {rrows[static_cast<std::size_t>(a)], s - D}});
-        }
-        // keep the best N * shifts (enough for N distinct reference points) to bound memory
-        const std::size_t keep = static_cast<std::size_t>(N) * static_cast<std::size_t>(shifts);
-        if (cs.size() > keep) {
-          std::nth_element(cs.begin(), cs.begin() + static_cast<long>(keep), cs.end());
-          cs.resize(keep);
+  for (Eigen::Index b0 = 0; b0 < nchunks; b0 += batch) {
+    const Eigen::Index b1 = std::min(nchunks, b0 + batch);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (Eigen::Index ci = b0; ci < b1; ++ci) {
+      const Eigen::Index c0 = ci * chunk;
+      const Eigen::Index n = std::min(chunk, Kt - c0);
+      for (int s = 0; s < shifts; ++s) {  // window starts at target radius index s (shift s - D)
+        if (s + m > tgt.valid.cols()) break;
+        const Eigen::MatrixXf T = tgt.desc.block(c0, static_cast<Eigen::Index>(kShotSize) * s, n, W);
+        const Eigen::VectorXf tn = T.rowwise().squaredNorm();
+        const Eigen::MatrixXf dot = T * R.transpose();  // n x Kr'
+        for (Eigen::Index i = 0; i < n; ++i) {
+          if (!tgt.valid.row(c0 + i).segment(s, m).all()) continue;
+          auto& cs = cand[static_cast<std::size_t>(c0 + i)];
+          for (Eigen::Index a = 0; a < dot.cols(); ++a) {
+            const float d2 = std::max(0.0f, tn(i) + rn(a) - 2 * dot(i, a));
+            cs.push_back({d2, {rrows[static_cast<std::size_t>(a)], s - D}});
+          }
+          // keep the best N * shifts (enough for N distinct reference points) to bound memory
+          const std::size_t keep = static_cast<std::size_t>(N) * static_cast<std::size_t>(shifts);
+          if (cs.size() > keep) {
+            std::nth_element(cs.begin(), cs.begin() + static_cast<long>(keep), cs.end());
+            cs.resize(keep);
+          }
         }
       }
     }
-    if (progress && !progress(static_cast<double>(c0 + n) / static_cast<double>(Kt))) throw Cancelled();
+    if (progress && !progress(static_cast<double>(std::min(Kt, b1 * chunk)) / static_cast<double>(Kt))) throw Cancelled();
   }
   for (Eigen::Index i = 0; i < Kt; ++i) {
     auto& cs = cand[static_cast<std::size_t>(i)];

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <variant>
@@ -152,6 +153,11 @@ Params params_from_json(const std::string& text, const Params& base) {
         if (!v.is_number_integer() && !(v.is_number() && std::floor(v.get<double>()) == v.get<double>()))
           throw std::invalid_argument("parameter " + it.key() + " must be a whole number");
         if (v.get<double>() < 0) throw std::invalid_argument("parameter " + it.key() + " must not be negative");
+        // range-check before the cast: 1e30 or 2^32+1 would wrap around silently
+        constexpr double limit = sizeof(T) >= 8 ? 0x1p63 : static_cast<double>(std::numeric_limits<T>::max()) + 1.0;
+        if (v.get<double>() >= limit)
+          throw std::invalid_argument("parameter " + it.key() + " is too large (at most " +
+                                      std::to_string(static_cast<std::uint64_t>(limit - 1)) + ")");
         p.*m = v.is_number_unsigned() ? static_cast<T>(v.get<std::uint64_t>()) : static_cast<T>(v.get<double>());
       }
     }, found->ptr);

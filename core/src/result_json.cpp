@@ -50,7 +50,8 @@ std::string result_to_json(const Result& r, int indent) {
   t["total"] = num(total);
   j["timings"] = t;
   j["warnings"] = r.warnings;
-  return j.dump(indent);
+  // warnings may quote file names that are not UTF-8: replace such bytes instead of throwing
+  return j.dump(indent, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 }  // namespace fe

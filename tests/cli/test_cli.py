@@ -105,6 +105,18 @@ class Cli(unittest.TestCase):
         with open(self.out) as f:
             self.assertEqual(json.load(f, parse_constant=no_nan)["matches"], [])
 
+    def test_non_utf8_file_name_in_a_warning(self):
+        """A warning quotes the target's file name; bytes that are not UTF-8 must not abort the JSON."""
+        import shutil
+        tgt = os.path.join(os.fsencode(self.dir), b"t\xffrget.step")
+        shutil.copy(os.fsencode(TGT), tgt)
+        r = subprocess.run([EXE, "extract", "-q", "-r", REF, "-t", tgt, "-o", self.out, "--set", "max_dense_points=20000"],
+                           capture_output=True, timeout=600)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(self.out, encoding="utf-8") as f:
+            j = json.load(f, parse_constant=no_nan)
+        self.assertTrue(any("spacing increased" in w and "\ufffd" in w for w in j["warnings"]), j["warnings"])
+
     def test_unwritable_output_exits_4(self):
         r = run("extract", "-q", "-r", REF, "-t", os.path.join(MODELS, "boss_only.step"), "-o", "/nonexistent/dir/out.json")
         self.assertEqual(r.returncode, 4)

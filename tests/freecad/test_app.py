@@ -81,6 +81,41 @@ class App_(unittest.TestCase):
         api.save_reference(ref, brep)
         self.assertEqual(len(Part.read(brep).Faces), len(ref.Faces))
 
+    def test_shape_reference(self):
+        """A Part.Shape (not a document object) as reference: found, recorded without a link."""
+        ref_shape = Part.read(os.path.join(MODELS, "rib_reference.step"))
+        results = api.extract(self.part, ref_shape, seed=1)
+        self.assertEqual(len(results), 5)
+        for r in results:
+            self.assertIsNone(r.Reference)
+            self.assertEqual(r.ReferenceText, "shape")
+        # again: replaces those results instead of adding a second set
+        api.extract(self.part, ref_shape, seed=1)
+        self.assertEqual(len(self.doc.getObject(api.RESULT_GROUP).Group), 5)
+
+    def test_failed_recording_is_rolled_back(self):
+        """freecadcmd has no undo (UndoMode 0): a failure half-way through add_results must still leave
+        the document exactly as it was, earlier results included."""
+        api.extract(self.part, os.path.join(MODELS, "rib_reference.step"), seed=1)
+        before = sorted(o.Name for o in self.doc.Objects)
+        good = api.compute(self.part, os.path.join(MODELS, "rib_reference.step"), seed=1)
+
+        class Broken:  # the third match is unusable: created objects must be removed again
+            matches = list(good.matches[:2]) + [object()]
+        with self.assertRaises(AttributeError):
+            api.add_results(self.part, os.path.join(MODELS, "rib_reference.step"), Broken())
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), before)
+        # also when the result group itself was created by the failing call
+        doc2 = App.newDocument("fe_test2")
+        try:
+            part2 = doc2.addObject("Part::Feature", "Part")
+            part2.Shape = self.part.Shape
+            with self.assertRaises(AttributeError):
+                api.add_results(part2, "x.step", Broken())
+            self.assertEqual(sorted(o.Name for o in doc2.Objects), ["Part"])
+        finally:
+            App.closeDocument(doc2.Name)
+
     def test_bad_input_leaves_the_document_unchanged(self):
         before = sorted(o.Name for o in self.doc.Objects)
         with self.assertRaises(api.FeatureExtractError):
@@ -89,6 +124,8 @@ class App_(unittest.TestCase):
             api.make_reference(self.part, ["Edge3"])
         with self.assertRaises(api.FeatureExtractError):
             api.make_reference(self.part, ["Face9999"])
+        with self.assertRaises(api.FeatureExtractError):  # a shape is not a document object
+            api.make_reference(self.part.Shape, ["Face1"])
         empty = self.doc.addObject("App::FeaturePython", "NoShape")
         before.append(empty.Name)
         with self.assertRaises(api.FeatureExtractError):

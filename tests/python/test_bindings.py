@@ -48,6 +48,31 @@ def test_mesh_from_arrays_is_validated():
         fx.Mesh(v, np.array([[0, 1, 9]]), name="quad")
     with pytest.raises(fx.InputError, match="face_ids"):
         fx.Mesh(v, t, np.array([1]), name="quad")
+    with pytest.raises(fx.InputError, match="quad: negative face id"):
+        fx.Mesh(v, t, np.array([1, -2]), name="quad")
+    with pytest.raises(fx.InputError, match="quad: face id 2000000000 exceeds"):
+        fx.Mesh(v, t, np.array([1, 2_000_000_000]), name="quad")
+
+
+@pytest.mark.parametrize("rel,absolute", [(float("nan"), 0.0), (0.0, 0.0), (-1.0, 0.0), (0.002, float("inf")),
+                                          (0.002, float("nan"))])
+def test_bad_deflections_are_refused(rel, absolute):
+    with pytest.raises(fx.InputError, match="rib_reference.step: tessellation deflections must be finite"):
+        fx.read_shape(os.path.join(MODELS, "rib_reference.step"), relative_deflection=rel, absolute_deflection=absolute)
+
+
+def test_integer_parameters_out_of_range_are_refused():
+    for name, value in [("threads", 4294967297), ("seed", 1e30), ("max_dense_points", 1e30)]:
+        with pytest.raises(ValueError, match=f"{name} is too large"):
+            fx.Params.from_json('{"%s": %r}' % (name, value))
+
+
+def test_result_does_not_depend_on_thread_count(ref, tgt):
+    one = fx.extract(ref, tgt, fx.make_params(seed=3, threads=1))
+    two = fx.extract(ref, tgt, fx.make_params(seed=3, threads=2))
+    assert len(one.matches) == len(two.matches) == 5
+    for a, b in zip(one.matches, two.matches):
+        assert np.array_equal(a.transform, b.transform) and list(a.faces) == list(b.faces)
 
 
 def test_bad_file_raises_input_error_naming_it(tmp_path):

@@ -26,6 +26,32 @@ class FeatureExtractError(ValueError):
     """A problem the user can fix (bad selection, no solid, unreadable shape): one clear sentence."""
 
 
+class _changes:
+    """One undoable transaction that also holds without an undo stack (freecadcmd has UndoMode 0, where
+    abortTransaction undoes nothing): on an exception the objects listed in `created` are removed
+    again, so a failed call leaves the document as it was."""
+
+    def __init__(self, doc, name):
+        self.doc, self.name, self.created = doc, name, []
+
+    def __enter__(self):
+        self.doc.openTransaction(self.name)
+        return self.created
+
+    def __exit__(self, kind, value, tb):
+        if kind is None:
+            self.doc.commitTransaction()
+            return False
+        for obj in reversed(self.created):
+            try:
+                if self.doc.getObject(obj.Name) is not None:
+                    self.doc.removeObject(obj.Name)
+            except Exception:  # noqa: BLE001  (already gone)
+                pass
+        self.doc.abortTransaction()
+        return False
+
+
 # ---------------------------------------------------------------------------------------------
 # shapes -> core meshes
 
@@ -78,6 +104,8 @@ def reference_shape(ref_obj):
 def make_reference(source, faces, label="Reference"):
     """Creates a persistent Reference feature from faces of `source` (names like 'Face3')."""
     from .objects import ReferenceFeature
+    if not isinstance(source, App.DocumentObject):
+        raise FeatureExtractError(f"{source!r}: a reference needs a document object with faces as its source")
     faces = list(faces)
     if not faces:
         raise FeatureExtractError(translate("FeatureExtract", "Select one or more faces of a solid first."))
@@ -91,9 +119,9 @@ def make_reference(source, faces, label="Reference"):
         except Exception:
             raise FeatureExtractError(f"{source.Label}: has no {f}")
     doc = source.Document
-    doc.openTransaction("Make reference feature")
-    try:
+    with _changes(doc, "Make reference feature") as created:
         obj = doc.addObject("Part::FeaturePython", label)
+        created.append(obj)
         ReferenceFeature(obj)
         obj.Source = source
         obj.Faces = faces
@@ -101,10 +129,6 @@ def make_reference(source, faces, label="Reference"):
             from .objects import ViewProviderReference
             ViewProviderReference(obj.ViewObject)
         doc.recompute()
-    except Exception:
-        doc.abortTransaction()
-        raise
-    doc.commitTransaction()
     return obj
 
 
@@ -117,7 +141,8 @@ def save_reference(ref_obj, path):
 # ---------------------------------------------------------------------------------------------
 # extraction
 
-_cache = {}  # key -> fx.Result: lets the GUI compute in the background and record a replayable call
+_cache = {}  # key -> fx.Result of recent compute() calls, so that extract() right after does not recompute
+_CACHE_SIZE = 4
 
 
 def _key(target_obj, reference, params):
@@ -162,8 +187,9 @@ def run(job, progress=None):
     rel, absolute = fx.tessellation_for_feature(ref.diagonal)
     tgt = fx.read_brep_string(job.target_brep, job.target_label, rel, absolute)
     result = fx.extract(ref, tgt, job.params, progress)
-    _cache.clear()
     _cache[job.key] = result
+    while len(_cache) > _CACHE_SIZE:
+        _cache.pop(next(iter(_cache)))
     return result
 
 
@@ -177,34 +203,47 @@ def extract(target_obj, reference, progress=None, **params):
     """Finds the instances of `reference` (a reference feature object, a Part.Shape or a file path) on
     `target_obj` and records one FeatureExtractResult object per instance in the document's result
     group (previous results for the same target and reference are replaced). Returns them."""
-    p = fx.make_params(**params)
-    result = _cache.pop(_key(target_obj, reference, p), None)
+    job = prepare(target_obj, reference, **params)
+    result = _cache.pop(job.key, None)
     if result is None:
-        result = compute(target_obj, reference, progress, **params)
-        _cache.clear()
+        result = run(job, progress)
+        _cache.pop(job.key, None)
     return add_results(target_obj, reference, result)
 
 
+def _reference_link(reference):
+    """(object to link, text) for a reference: a document object is linked; a file path or a Part.Shape
+    cannot be, and is described in ReferenceText instead."""
+    if isinstance(reference, App.DocumentObject):
+        return reference, reference.Label
+    if isinstance(reference, str):
+        return None, reference
+    return None, "shape"
+
+
 def add_results(target_obj, reference, result):
+    """Records a computed result as FeatureExtractResult objects (replacing earlier results for the same
+    target and reference), in one transaction; on any error the document is left as it was."""
     from .objects import ExtractionResult
     doc = target_obj.Document
-    doc.openTransaction("Extract similar features")
-    try:
+    ref_obj, ref_text = _reference_link(reference)
+    with _changes(doc, "Extract similar features") as created:
         group = doc.getObject(RESULT_GROUP)
         if group is None:
             group = doc.addObject("App::DocumentObjectGroup", RESULT_GROUP)
+            created.append(group)
             group.Label = "Similar features"
-        ref_obj = reference if hasattr(reference, "TypeId") else None
-        for old in list(group.Group):
-            if getattr(old, "Target", None) == target_obj and getattr(old, "Reference", None) == ref_obj:
-                doc.removeObject(old.Name)
-        created = []
+        old = [o for o in group.Group if getattr(o, "Target", None) == target_obj
+               and getattr(o, "Reference", None) == ref_obj and getattr(o, "ReferenceText", ref_text) == ref_text]
+        new = []
         for i, m in enumerate(result.matches):
             obj = doc.addObject("App::FeaturePython", "Similar")
+            created.append(obj)
             ExtractionResult(obj)
             obj.Label = f"Similar {i + 1} ({m.score:.2f})"
             obj.Target = target_obj
             obj.Reference = ref_obj
+            obj.ReferenceText = ref_text
             obj.Transform = App.Matrix(*[float(x) for x in m.transform.flatten()])
             obj.Score = m.score
             obj.MaxError = m.max_error
@@ -217,17 +256,15 @@ def add_results(target_obj, reference, result):
             if App.GuiUp:
                 from .objects import ViewProviderResult
                 ViewProviderResult(obj.ViewObject)
-            group.addObject(obj)
-            created.append(obj)
+            new.append(obj)
+        group.addObjects(new)
+        for o in old:  # only once everything new exists
+            doc.removeObject(o.Name)
         doc.recompute()
-    except Exception:
-        doc.abortTransaction()
-        raise
-    doc.commitTransaction()
     if App.GuiUp:
         from .objects import recolor
         recolor(target_obj)
-    return created
+    return new
 
 
 def results_for(target_obj):

@@ -69,12 +69,12 @@ class Tessellate:
             L = api.reference_shape(refs[0]).BoundBox.DiagonalLength if refs else obj.Shape.BoundBox.DiagonalLength / 5
             mesh = api.mesh_of_shape(api.target_shape(obj), obj.Label, L)
             d = fx.describe(mesh, fx.Description.Role.Target, L, fx.Params())
+            overlay.show(obj, d)
         except Exception as e:  # noqa: BLE001  (shown to the user as a sentence)
             report_error(str(e))
             return
         finally:
             QtGui.QApplication.restoreOverrideCursor()
-        overlay.show(obj, d)
         App.Console.PrintMessage(
             f"FeatureExtract: {obj.Label}: {mesh.triangles.shape[0]} triangles, {d.dense_points.shape[0]} dense and "
             f"{d.sparse_points.shape[0]} sparse samples, {d.key_points.shape[0]} key points (feature size {L:.2f})\n")
@@ -159,7 +159,8 @@ class ClearColors:
         from . import api
         from .objects import clear_colors
         group = App.ActiveDocument.getObject(api.RESULT_GROUP)
-        targets = {r.Target.Name: r.Target for r in (group.Group if group else []) if r.Target is not None}
+        targets = {r.Target.Name: r.Target for r in (group.Group if group else [])
+                   if getattr(r, "Target", None) is not None}
         for t in targets.values():
             clear_colors(t)
             for r in api.results_for(t):

@@ -40,6 +40,7 @@ class ExtractionResult(_Stateless):
         add = obj.addProperty
         add("App::PropertyLink", "Target", "Result", "The part searched")
         add("App::PropertyLink", "Reference", "Result", "The reference feature searched for")
+        add("App::PropertyString", "ReferenceText", "Result", "The reference's label, file path, or 'shape'")
         add("App::PropertyMatrix", "Transform", "Result", "Projective H: reference to target coordinates")
         add("App::PropertyFloat", "Score", "Result", "Fraction of the mapped reference lying on the target")
         add("App::PropertyFloat", "MaxError", "Result", "Acceptance error (quantile of distances), model units")

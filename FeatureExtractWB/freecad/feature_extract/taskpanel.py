@@ -1,7 +1,7 @@
 """The Extract task panel: presets and every parameter (with unit and help as tooltip), a background
 run with a progress bar and Cancel. The UI never waits on the computation: the core runs in a Python
-thread with the GIL released, and a timer polls its progress. When it succeeds, the results are
-created by a recorded `api.extract(...)` call (which takes the computed result from the cache)."""
+thread with the GIL released, and a timer polls its progress. When it succeeds, a recorded (so
+replayable) `api.extract(...)` call adds the results, taking the computed result from the api's cache."""
 import threading
 
 import FreeCAD as App
@@ -151,6 +151,7 @@ class ExtractPanel:
             self._finish(("error", str(e)))
             return
         self.reference = ref
+        self.job = job
         self.cancel = False
         self.finished = False
         self.outcome = None
@@ -173,6 +174,7 @@ class ExtractPanel:
 
         self.thread = threading.Thread(target=work, daemon=True)
         self.thread.start()
+        self.bar.setValue(0)
         self.timer.start()
 
     def request_cancel(self):
@@ -196,12 +198,21 @@ class ExtractPanel:
         if kind == "ok":
             args = ", ".join(f"{k}={v!r}" for k, v in sorted(self.params.items()))
             t, r = self.target, self.reference
-            Gui.addModule("freecad.feature_extract.api")
+            command = (f"freecad.feature_extract.api.extract(App.getDocument('{t.Document.Name}').getObject('{t.Name}'), "
+                       f"App.getDocument('{r.Document.Name}').getObject('{r.Name}'){', ' + args if args else ''})")
+            from . import api
             try:
-                Gui.doCommand(f"freecad.feature_extract.api.extract(App.getDocument('{t.Document.Name}').getObject('{t.Name}'), "
-                              f"App.getDocument('{r.Document.Name}').getObject('{r.Name}'){', ' + args if args else ''})")
-                from . import api
-                self.created = api.results_for(t)
+                Gui.addModule("freecad.feature_extract.api")
+                if hasattr(Gui, "doCommandSkip"):  # FreeCAD >= 0.21: record only, add what was computed here
+                    api._cache.pop(self.job.key, None)
+                    Gui.doCommandSkip(command)
+                    self.created = api.add_results(t, r, value)
+                else:
+                    # FreeCAD 0.20: the recorded call runs; it takes the result just computed from the
+                    # api's cache (keyed by target shape, reference and parameters, so a target edited
+                    # meanwhile is searched again rather than given a stale result)
+                    Gui.doCommand(command)
+                    self.created = api.results_for(t)
                 msg = translate("FeatureExtract", "{n} similar feature(s) found in {s:.1f} s.").format(
                     n=len(value.matches), s=sum(x for _, x in value.timings))
                 self.bar.setValue(100)
@@ -227,8 +238,10 @@ class ExtractPanel:
     def reject(self):
         global current
         if self.thread is not None:
+            # the worker stops at its next progress report; its outcome is dropped (nothing is added)
             self.cancel = True
-            self.thread.join(timeout=30)
+            self.thread.join(timeout=2)
+            self.thread = None
         self.timer.stop()
         Gui.Control.closeDialog()
         current = None

@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 
 namespace fe {
@@ -62,11 +63,17 @@ class PreparedTarget {
   /// Same as extract(reference, mesh(), params, progress), reusing a matching description.
   Result extract(const TriangleMesh& reference, const Params& params = {}, const ProgressFn& progress = {});
   /// How many target descriptions were computed so far (steps 1-3 on the target).
-  int descriptions_built() const { return built_; }
+  int descriptions_built() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return built_;
+  }
 
  private:
   TriangleMesh mesh_;
-  std::vector<std::pair<std::string, ShapeDescription>> cache_;  // key: L + descriptor parameters
+  // key: L + descriptor parameters. Guarded by mutex_, so that several threads may query one target;
+  // a query holds its own reference to the description while it matches.
+  std::vector<std::pair<std::string, std::shared_ptr<const ShapeDescription>>> cache_;
+  mutable std::mutex mutex_;
   int built_ = 0;
 };
 
