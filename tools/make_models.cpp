@@ -9,13 +9,22 @@
 //   flat_reference.step     a planar patch (no distinctive key points)
 //   boss_only.step          a plate with bosses only (nothing similar to the rib)
 //   bench_100k.stl          (--bench) a larger plate of ribs and bosses, about 100k triangles
+//   suite/                  (--suite) the benchmark suite: models as STEP and STL, suite.json with the
+//                           cases and their ground truth (target FaceN sets and boxes per instance)
+//                           (--real DIR: plus a case on the real part DIR/nist_ftc_10_asme1_rb.stp)
+//   scaling/                (--scaling) that plate tessellated to about 10k, 100k, 300k and 1M triangles
 // Units are millimetres. Everything is deterministic.
 #include "featureextract/io.h"
+
+#include <nlohmann/json.hpp>
 
 #include <BRepAlgoAPI_Fuse.hxx>
 #include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
+#include <BRepBuilderAPI_GTransform.hxx>
 #include <BRepBuilderAPI_Transform.hxx>
+#include <BRepPrimAPI_MakeSphere.hxx>
+#include <gp_GTrsf.hxx>
 #include <BRepBndLib.hxx>
 #include <BRepFilletAPI_MakeFillet.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
@@ -31,6 +40,7 @@
 #include <Message_Messenger.hxx>
 #include <Message_PrinterOStream.hxx>
 #include <Poly_Triangulation.hxx>
+#include <STEPControl_Reader.hxx>
 #include <STEPControl_Writer.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
@@ -46,6 +56,7 @@
 #include <iostream>
 #include <random>
 #include <sstream>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -56,6 +67,7 @@ struct Rib {
   double wb = 8, wt = 5, h = 12;
   double scale = 1;   // isotropic scale of the whole rib (fillets too)
   double r_top = 1.2, r_root = 1.5;
+  double angle = 0;   // rotation about the vertical axis through (x, y), degrees
 };
 struct Boss {
   double x, y, r = 6, h = 12, r_top = 1.0, r_root = 1.5;
@@ -97,9 +109,10 @@ TopoDS_Shape rib_solid(const Rib& r) {
   }
   fil.Build();
   if (!fil.IsDone()) die("rib fillet failed");
-  gp_Trsf t;
+  gp_Trsf t, rot;
   t.SetTranslation(gp_Vec(r.x, r.y, 0));
-  return BRepBuilderAPI_Transform(fil.Shape(), t, true).Shape();
+  rot.SetRotation(gp_Ax1(gp::Origin(), gp::DZ()), r.angle * M_PI / 180.0);
+  return BRepBuilderAPI_Transform(fil.Shape(), t * rot, true).Shape();
 }
 
 TopoDS_Shape boss_solid(const Boss& b) {
@@ -114,10 +127,12 @@ TopoDS_Shape boss_solid(const Boss& b) {
 }
 
 // Plate (top at z = 0) with ribs and bosses fused on, root edges filleted.
-TopoDS_Shape part(double sx, double sy, const std::vector<Rib>& ribs, const std::vector<Boss>& bosses) {
+TopoDS_Shape part(double sx, double sy, const std::vector<Rib>& ribs, const std::vector<Boss>& bosses,
+                  const std::vector<TopoDS_Shape>& extra = {}) {
   TopoDS_Shape s = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, -6), gp_Pnt(sx, sy, 0)).Shape();
   for (const Rib& r : ribs) s = BRepAlgoAPI_Fuse(s, rib_solid(r)).Shape();
   for (const Boss& b : bosses) s = BRepAlgoAPI_Fuse(s, boss_solid(b)).Shape();
+  for (const TopoDS_Shape& e : extra) s = BRepAlgoAPI_Fuse(s, e).Shape();
   // root fillets: edges lying in z = 0 that are not on the plate's outer boundary
   BRepFilletAPI_MakeFillet fil(s);
   int n = 0;
@@ -128,7 +143,9 @@ TopoDS_Shape part(double sx, double sy, const std::vector<Rib>& ribs, const std:
     if (!at_top || boundary) continue;
     double rr = 1.5;
     for (const Rib& r : ribs)
-      if (std::abs(0.5 * (x0 + x1) - r.x) < r.wb * r.scale && std::abs(0.5 * (y0 + y1) - r.y) < r.length * r.scale) rr = r.r_root * r.scale;
+      if (r.angle == 0 ? std::abs(0.5 * (x0 + x1) - r.x) < r.wb * r.scale && std::abs(0.5 * (y0 + y1) - r.y) < r.length * r.scale
+                       : std::hypot(0.5 * (x0 + x1) - r.x, 0.5 * (y0 + y1) - r.y) < (0.6 * r.length + r.wb) * r.scale)
+        rr = r.r_root * r.scale;
     fil.Add(rr, TopoDS::Edge(e.Current()));
     ++n;
   }
@@ -168,8 +185,8 @@ TopoDS_Shape cut_faces(const TopoDS_Shape& s, double x0, double y0, double x1, d
   return c;
 }
 
-fe::TriangleMesh tessellate(const TopoDS_Shape& s, double defl) {
-  BRepMesh_IncrementalMesh(s, defl, false, 0.2, true);
+fe::TriangleMesh tessellate(const TopoDS_Shape& s, double defl, double angle = 0.2) {
+  BRepMesh_IncrementalMesh(s, defl, false, angle, true);
   TopTools_IndexedMapOfShape faces;
   TopExp::MapShapes(s, TopAbs_FACE, faces);
   std::vector<double> v;
@@ -226,11 +243,369 @@ std::string json_point(double x, double y, double z) {
   return s.str();
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// The benchmark suite (issue 4): cases with ground truth per instance (target FaceN sets and boxes).
+
+using Json = nlohmann::ordered_json;
+
+// FaceN of the faces of s on or above the plate top (not the plate top itself, not the plate sides)
+// whose bounding box lies inside the xy box: the feature standing there, root fillets included.
+std::vector<int> faces_in(const TopoDS_Shape& s, double x0, double y0, double x1, double y1) {
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(s, TopAbs_FACE, faces);
+  std::vector<int> out;
+  for (int i = 1; i <= faces.Extent(); ++i) {
+    Bnd_Box fb;  // exact box of the surface (no triangulation, no tolerance gap)
+    BRepBndLib::AddOptimal(faces(i), fb, false, false);
+    double a0, b0, c0, a1, b1, c1;
+    fb.Get(a0, b0, c0, a1, b1, c1);
+    if (c1 < 0.05 || c0 < -0.05) continue;
+    if (a0 < x0 || a1 > x1 || b0 < y0 || b1 > y1) continue;
+    out.push_back(i);
+  }
+  return out;
+}
+
+Json instance(const TopoDS_Shape& s, const std::vector<int>& faces, const Box& region, const std::string& label) {
+  if (faces.empty()) die("suite: no truth faces for " + label);
+  TopTools_IndexedMapOfShape map;
+  TopExp::MapShapes(s, TopAbs_FACE, map);
+  Bnd_Box b;
+  for (int f : faces) BRepBndLib::Add(map(f), b);
+  double x0, y0, z0, x1, y1, z1;
+  b.Get(x0, y0, z0, x1, y1, z1);
+  (void)region;
+  return {{"label", label}, {"faces", faces}, {"box", {{x0, y0, z0}, {x1, y1, z1}}}};
+}
+
+TopoDS_Shape gtransform(const TopoDS_Shape& s, const gp_Mat& m) {
+  gp_GTrsf g;
+  g.SetVectorialPart(m);
+  BRepBuilderAPI_GTransform t(s, g, true);
+  if (!t.IsDone()) die("suite: general transform failed");
+  return t.Shape();
+}
+
+TopoDS_Shape moved(const TopoDS_Shape& s, double dx, double dy) {
+  gp_Trsf t;
+  t.SetTranslation(gp_Vec(dx, dy, 0));
+  return BRepBuilderAPI_Transform(s, t, true).Shape();
+}
+
+TopoDS_Compound compound(const std::vector<TopoDS_Shape>& parts) {
+  TopoDS_Compound c;
+  BRep_Builder b;
+  b.MakeCompound(c);
+  for (const TopoDS_Shape& p : parts) b.Add(c, p);
+  return c;
+}
+
+// A row (or grid) of tiles: each a small plate with one rib (scale s) deformed by m, laid out with gaps.
+struct Tile {
+  double scale = 1;
+  gp_Mat m = gp_Mat(1, 0, 0, 0, 1, 0, 0, 0, 1);
+  std::string label;
+  int row = 0;
+};
+std::pair<TopoDS_Shape, Json> tiles(const std::vector<Tile>& spec) {
+  std::vector<TopoDS_Shape> parts;
+  std::vector<Box> boxes;
+  double x = 0, y = 0, row_h = 0;
+  int row = spec.empty() ? 0 : spec[0].row;
+  for (const Tile& t : spec) {
+    if (t.row != row) {
+      row = t.row;
+      x = 0;
+      y += row_h + 10;
+      row_h = 0;
+    }
+    Rib r{18 * t.scale, 32 * t.scale};
+    r.scale = t.scale;
+    TopoDS_Shape p = gtransform(part(36 * t.scale, 64 * t.scale, {r}, {}), t.m);
+    const Box b0 = bbox(p);
+    p = moved(p, x - b0.x0, y - b0.y0);
+    const Box b = bbox(p);
+    parts.push_back(p);
+    boxes.push_back(b);
+    x = b.x1 + 10;
+    row_h = std::max(row_h, b.y1 - b.y0);
+  }
+  const TopoDS_Compound c = compound(parts);
+  Json truth = Json::array();
+  for (std::size_t i = 0; i < spec.size(); ++i) {
+    const Box& b = boxes[i];
+    truth.push_back(instance(c, faces_in(c, b.x0 - 1e-3, b.y0 - 1e-3, b.x1 + 1e-3, b.y1 + 1e-3), b, spec[i].label));
+  }
+  return {c, truth};
+}
+
+// FaceN of the faces of s lying wholly inside a 3D box (exact surface boxes).
+std::vector<int> faces_in_box(const TopoDS_Shape& s, const Box& box) {
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(s, TopAbs_FACE, faces);
+  std::vector<int> out;
+  for (int i = 1; i <= faces.Extent(); ++i) {
+    Bnd_Box fb;
+    BRepBndLib::AddOptimal(faces(i), fb, false, false);
+    double a0, b0, c0, a1, b1, c1;
+    fb.Get(a0, b0, c0, a1, b1, c1);
+    if (a0 >= box.x0 && a1 <= box.x1 && b0 >= box.y0 && b1 <= box.y1 && c0 >= box.z0 && c1 <= box.z1) out.push_back(i);
+  }
+  return out;
+}
+
+TopoDS_Compound faces_compound(const TopoDS_Shape& s, const std::vector<int>& ids) {
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(s, TopAbs_FACE, faces);
+  std::vector<TopoDS_Shape> v;
+  for (int i : ids) v.push_back(faces(i));
+  return compound(v);
+}
+
+void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vector<Rib>& ribs_b, const std::string& real_dir) {
+  const std::string dir = root + "/suite";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) die(dir + ": cannot create folder: " + ec.message());
+  Json cases = Json::array();
+  // every model as STEP (FaceN ground truth) and as an STL of the same geometry (for mesh-only peers)
+  auto save = [&](const std::string& name, const TopoDS_Shape& s) {
+    write_step(s, dir + "/" + name + ".step");
+    fe::write_stl(tessellate(s, 0.05), dir + "/" + name + ".stl", true);
+    std::cout << "fe_make_models: suite/" << name << "\n" << std::flush;
+  };
+  auto add = [&](const std::string& name, const std::string& what, const std::string& ref, const std::string& target,
+                 const Json& truth, const std::string& kind) {
+    cases.push_back({{"name", name}, {"what", what}, {"kind", kind}, {"reference", ref}, {"target", target},
+                     {"instances", truth}});
+  };
+  {
+    Rib r{30, 40};
+    save("rib_reference", cut_faces(part(60, 80, {r}, {}), 15, 10, 45, 70));
+    save("boss_reference", cut_faces(part(60, 60, {}, {{30, 30}}), 15, 15, 45, 45));
+    save("rib_wide_reference", cut_faces(b, 60 - 15, 40 - 30, 60 + 15, 40 + 30));
+  }
+  auto rib_truth = [&](const TopoDS_Shape& s, const std::vector<Rib>& ribs, double half_x, double half_y) {
+    Json t = Json::array();
+    for (const Rib& r : ribs) {
+      const Box box{r.x - half_x, r.y - half_y, -1, r.x + half_x, r.y + half_y, 1};
+      std::ostringstream l;
+      l << "rib at (" << r.x << ", " << r.y << ")";
+      t.push_back(instance(s, faces_in(s, box.x0, box.y0, box.x1, box.y1), box, l.str()));
+    }
+    return t;
+  };
+  // isotropic scale sweep 1.0 - 3.0
+  {
+    std::vector<Tile> spec;
+    for (int i = 0; i <= 8; ++i) {
+      Tile t;
+      t.scale = 1.0 + 0.25 * i;
+      t.label = "scale " + std::to_string(t.scale).substr(0, 4);
+      t.row = i / 5;
+      spec.push_back(t);
+    }
+    auto [s, truth] = tiles(spec);
+    save("iso_scale", s);
+    add("iso_scale", "9 ribs scaled 1.0x to 3.0x (paper: up to 1.8x)", "rib_reference", "iso_scale", truth, "scale");
+  }
+  // anisotropic: width x length grid up to 2.5x
+  {
+    std::vector<Tile> spec;
+    const double f[] = {1.0, 1.5, 2.0, 2.5};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        Tile t;
+        t.m = gp_Mat(f[j], 0, 0, 0, f[i], 0, 0, 0, 1);
+        t.label = "width " + std::to_string(f[j]).substr(0, 3) + " x length " + std::to_string(f[i]).substr(0, 3);
+        t.row = i;
+        spec.push_back(t);
+      }
+    auto [s, truth] = tiles(spec);
+    save("aniso_grid", s);
+    add("aniso_grid", "16 ribs stretched: width x length factors 1.0-2.5 (paper: 1.5 x 1.2)", "rib_reference", "aniso_grid",
+        truth, "anisotropic");
+  }
+  // shear: leaning (x += k z) and skewed in plane (x += k y)
+  {
+    std::vector<Tile> spec;
+    for (double k : {0.2, 0.4}) {
+      Tile t;
+      t.m = gp_Mat(1, 0, k, 0, 1, 0, 0, 0, 1);
+      t.label = "lean " + std::to_string(k).substr(0, 3);
+      spec.push_back(t);
+    }
+    for (double k : {0.3, 0.6}) {
+      Tile t;
+      t.m = gp_Mat(1, k, 0, 0, 1, 0, 0, 0, 1);
+      t.label = "skew " + std::to_string(k).substr(0, 3);
+      spec.push_back(t);
+    }
+    auto [s, truth] = tiles(spec);
+    save("shear", s);
+    add("shear", "4 ribs sheared: leaning 0.2, 0.4 (x += k z), skewed in plane 0.3, 0.6 (x += k y)", "rib_reference", "shear",
+        truth, "anisotropic");
+  }
+  // the paper's plate: 5 ribs of different top/bottom widths, 2 bosses that must not match
+  const Json truth_b = rib_truth(b, ribs_b, 15, 30);
+  save("five_ribs", b);
+  add("five_ribs", "5 ribs of different top/bottom widths, 2 bosses (distractors)", "rib_reference", "five_ribs", truth_b, "paper");
+  // axisymmetric bosses of 5 sizes, no dummy shape
+  {
+    std::vector<Boss> bosses;
+    const double r[] = {4, 5, 6, 7.5, 9}, h[] = {8, 10, 12, 14, 16};
+    double x = 20;
+    for (int i = 0; i < 5; ++i) {
+      bosses.push_back({x, 35, r[i], h[i]});
+      x += 2 * r[i] + 30;
+    }
+    const TopoDS_Shape s = part(x, 70, {}, bosses);
+    Json truth = Json::array();
+    for (const Boss& bo : bosses) {
+      const double m = bo.r + 3;
+      truth.push_back(instance(s, faces_in(s, bo.x - m, bo.y - m, bo.x + m, bo.y + m), {}, "boss r " + std::to_string(bo.r).substr(0, 3)));
+    }
+    save("bosses", s);
+    add("bosses", "5 cylindrical bosses, radius 4-9 mm, height 8-16 mm, no dummy shape (paper: 4 of 5 with a dummy)",
+        "boss_reference", "bosses", truth, "axisymmetric");
+  }
+  // a cast-like part (the plate of five_ribs) stretched anisotropically, reference cut from the original
+  {
+    const double ax = 1.3, ay = 0.85, az = 1.15;
+    const TopoDS_Shape s = gtransform(b, gp_Mat(ax, 0, 0, 0, ay, 0, 0, 0, az));
+    Json truth = Json::array();
+    for (const Rib& r : ribs_b)
+      truth.push_back(instance(s, faces_in(s, ax * (r.x - 15), ay * (r.y - 30), ax * (r.x + 15), ay * (r.y + 30)), {},
+                               "rib at x " + std::to_string(static_cast<int>(ax * r.x))));
+    save("cast_aniso", s);
+    add("cast_aniso", "the five_ribs part stretched 1.3 x 0.85 x 1.15; reference cut from the unstretched part",
+        "rib_wide_reference", "cast_aniso", truth, "anisotropic");
+  }
+  // six similar features: ribs of different lengths, heights and widths
+  {
+    std::vector<Rib> ribs;
+    const double len[] = {40, 30, 50, 40, 60, 35}, h[] = {12, 10, 14, 9, 12, 16}, wb[] = {8, 8, 9, 7, 8, 8};
+    for (int i = 0; i < 6; ++i) {
+      Rib r{25.0 + 45.0 * i, 50};
+      r.length = len[i];
+      r.h = h[i];
+      r.wb = wb[i];
+      ribs.push_back(r);
+    }
+    const TopoDS_Shape s = part(285, 100, ribs, {});
+    Json truth = Json::array();
+    for (const Rib& r : ribs)
+      truth.push_back(instance(s, faces_in(s, r.x - 15, r.y - r.length / 2 - 8, r.x + 15, r.y + r.length / 2 + 8), {},
+                               "rib length " + std::to_string(static_cast<int>(r.length)) + " height " + std::to_string(static_cast<int>(r.h))));
+    save("six_features", s);
+    add("six_features", "6 ribs of lengths 30-60 mm, heights 9-16 mm, base widths 7-9 mm", "rib_reference", "six_features",
+        truth, "paper");
+  }
+  // features rotated in the plane
+  {
+    std::vector<Rib> ribs;
+    const double angle[] = {0, 30, 60, 90, 135};
+    for (int i = 0; i < 5; ++i) {
+      Rib r{35.0 + 55.0 * i, 45};
+      r.angle = angle[i];
+      ribs.push_back(r);
+    }
+    const TopoDS_Shape s = part(290, 90, ribs, {});
+    Json truth = Json::array();
+    for (const Rib& r : ribs)
+      truth.push_back(instance(s, faces_in(s, r.x - 27, r.y - 27, r.x + 27, r.y + 27), {},
+                               "rib turned " + std::to_string(static_cast<int>(r.angle)) + " deg"));
+    save("rotated_in_plane", s);
+    add("rotated_in_plane", "5 ribs turned 0, 30, 60, 90, 135 degrees in the plate plane", "rib_reference",
+        "rotated_in_plane", truth, "rotation");
+  }
+  // the whole part rotated in 3D (a transformed copy keeps the face order)
+  {
+    gp_Trsf t;
+    t.SetRotation(gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(1, 2, 3)), 0.9);
+    const TopoDS_Shape s = BRepBuilderAPI_Transform(b, t, true).Shape();
+    Json truth = Json::array();
+    for (const auto& inst : truth_b) truth.push_back(instance(s, inst["faces"].get<std::vector<int>>(), {}, inst["label"].get<std::string>()));
+    save("rotated_3d", s);
+    add("rotated_3d", "the five_ribs part rotated 0.9 rad about (1, 2, 3)", "rib_reference", "rotated_3d", truth, "rotation");
+  }
+  // distractors: 3 ribs among a block, a boss, a dome and a low pad
+  {
+    std::vector<Rib> ribs = {{30, 45}, {110, 45}, {190, 45}};
+    std::vector<TopoDS_Shape> extra;
+    extra.push_back(BRepPrimAPI_MakeBox(gp_Pnt(62, 15, -0.5), gp_Pnt(78, 30, 10)).Shape());
+    extra.push_back(BRepPrimAPI_MakeSphere(gp_Pnt(70, 68, -4), 11).Shape());
+    extra.push_back(BRepPrimAPI_MakeBox(gp_Pnt(140, 60, -0.5), gp_Pnt(162, 74, 4)).Shape());
+    const TopoDS_Shape s = part(220, 90, ribs, {{150, 25}}, extra);
+    save("distractors", s);
+    add("distractors", "3 ribs and 4 distractors (sharp block, boss, dome, low pad)", "rib_reference", "distractors",
+        rib_truth(s, ribs, 15, 30), "distractor");
+  }
+  // nothing similar
+  {
+    save("nothing", part(120, 80, {}, {{30, 40}, {90, 40, 8, 10}}));
+    add("nothing", "bosses only: nothing similar to the rib", "rib_reference", "nothing", Json::array(), "distractor");
+  }
+  // cracked, jittered, unwelded mesh of five_ribs: mesh input, truth as boxes only
+  {
+    fe::write_stl(damage(tessellate(b, 0.05), 0.03, 0.01, 7), dir + "/cracked.stl", true);
+    Json truth = Json::array();
+    for (const auto& inst : truth_b) truth.push_back({{"label", inst["label"]}, {"faces", Json::array()}, {"box", inst["box"]}});
+    cases.push_back({{"name", "cracked"}, {"what", "five_ribs as a cracked (0.03 mm), jittered (0.01 mm), unwelded STL"},
+                     {"kind", "mesh"}, {"reference", "rib_reference"}, {"target", "cracked"}, {"target_is_mesh", true},
+                     {"instances", truth}});
+  }
+  // a real part: NIST FTC-10 (public domain, ../shared/data/real), one corner ear cut out as the
+  // reference, the four ears (mirror images two by two) as the truth
+  if (!real_dir.empty()) {
+    const std::string path = real_dir + "/nist_ftc_10_asme1_rb.stp";
+    STEPControl_Reader r;
+    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
+    const TopoDS_Shape s = r.OneShape();
+    const Box ears[] = {{-81, -1, 18, -60, 33, 39}, {60, -1, 18, 81, 33, 39}, {-81, -1, -39, -60, 33, -18}, {60, -1, -39, 81, 33, -18}};
+    const std::string names[] = {"ear x-, z+ (the reference)", "ear x+, z+", "ear x-, z-", "ear x+, z-"};
+    Json truth = Json::array();
+    for (int i = 0; i < 4; ++i) truth.push_back(instance(s, faces_in_box(s, ears[i]), ears[i], names[i]));
+    save("ftc10_ear_reference", faces_compound(s, faces_in_box(s, ears[0])));
+    save("ftc10", s);
+    add("ftc10", "real part NIST FTC-10 (214 faces): its 4 corner ears, reference cut from one of them", "ftc10_ear_reference",
+        "ftc10", truth, "real");
+  }
+  std::ofstream(dir + "/suite.json") << Json{{"units", "mm"}, {"cases", cases}}.dump(1) << "\n";
+}
+
+// Plates of ribs and bosses tessellated to about n triangles (read as STL): the scaling benchmark.
+void write_scaling(const std::string& root) {
+  const std::string dir = root + "/scaling";
+  std::filesystem::create_directories(dir);
+  std::vector<Rib> ribs;
+  std::vector<Boss> bosses;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 3; ++j) {
+      Rib r{25.0 + 40.0 * i, 40.0 + 70.0 * j};
+      r.scale = 1.0 + 0.1 * ((i + j) % 4);
+      ribs.push_back(r);
+    }
+  for (int j = 0; j < 3; ++j) bosses.push_back({185, 40.0 + 70.0 * j});
+  const TopoDS_Shape big = part(210, 220, ribs, bosses);
+  Json sizes = Json::array();
+  for (const auto& [name, defl, angle] : std::vector<std::tuple<std::string, double, double>>{
+           {"10k", 0.12, 0.35}, {"100k", 0.004, 0.2}, {"300k", 0.0014, 0.2}, {"1m", 0.0004, 0.2}}) {
+    BRepTools::Clean(big);
+    const fe::TriangleMesh m = tessellate(big, defl, angle);
+    fe::write_stl(m, dir + "/plate_" + name + ".stl", true);
+    sizes.push_back({{"file", "plate_" + name + ".stl"}, {"triangles", m.triangles.rows()}, {"deflection", defl},
+                     {"angular_deflection", angle}});
+    std::cout << "fe_make_models: scaling/plate_" << name << ".stl: " << m.triangles.rows() << " triangles\n" << std::flush;
+  }
+  std::ofstream(dir + "/scaling.json") << Json{{"ribs", ribs.size()}, {"sizes", sizes}}.dump(1) << "\n";
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: fe_make_models OUTDIR [--bench]\n";
+    std::cerr << "usage: fe_make_models OUTDIR [--bench] [--suite [--real DATA_DIR]] [--scaling]\n";
     return 2;
   }
   Message::DefaultMessenger()->RemovePrinters(STANDARD_TYPE(Message_PrinterOStream));
@@ -238,7 +613,16 @@ int main(int argc, char** argv) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) die(dir + ": cannot create folder: " + ec.message());
-  const bool bench = argc > 2 && std::string(argv[2]) == "--bench";
+  bool bench = false, suite = false, scaling = false;
+  std::string real_dir;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--bench") bench = true;
+    else if (a == "--real" && i + 1 < argc) real_dir = argv[++i];
+    else if (a == "--suite") suite = true;
+    else if (a == "--scaling") scaling = true;
+    else die("unknown option " + a + " (usage: fe_make_models OUTDIR [--bench] [--suite [--real DATA_DIR]] [--scaling])");
+  }
   std::ostringstream truth;
   truth << "{\n";
 
@@ -321,6 +705,8 @@ int main(int argc, char** argv) {
     fe::write_stl(m, dir + "/bench_100k.stl", true);
     truth << "  \"bench_100k.stl\": {\"ribs\": " << ribs.size() << ", \"triangles\": " << m.triangles.rows() << "},\n";
   }
+  if (suite) write_suite(dir, b, ribs_b, real_dir);
+  if (scaling) write_scaling(dir);
   truth << "  \"units\": \"mm\"\n}\n";
   std::ofstream(dir + "/truth.json") << truth.str();
   std::cout << "fe_make_models: wrote models to " << dir << "\n";

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The benchmark suite in one command: installs what the peers and the plot need (Debian packages),
+# builds, generates the suite and scaling models, runs our engine and the peers on every case, and
+# writes the tables and plot into docs/benchmarks.md (between the suite markers) and docs/images/.
+#   bench/run_suite.sh [suite.py options, e.g. --cases five_ribs bosses --methods ours open3d]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${FE_BUILD_DIR:-build}
+PACKAGES=(python3-open3d python3-scipy python3-matplotlib time)
+missing=()
+for p in "${PACKAGES[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "run_suite: installing ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO=sudo
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+[ -f "$BUILD/CMakeCache.txt" ] || ./setup.sh
+cmake --build "$BUILD" -j2 >/dev/null
+"$BUILD/fe_make_models" "$BUILD/models" --suite --scaling >/dev/null
+exec /usr/bin/python3 bench/suite.py --build "$BUILD" "$@"
