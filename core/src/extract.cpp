@@ -240,6 +240,84 @@ double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& 
   return std::sqrt(dn * dn + over * over);
 }
 
+// Axisymmetry of the reference (issue 5): on a surface of revolution every normal line meets the
+// axis, so the Pluecker coordinates (n, x x n) of all normal lines satisfy one linear equation
+// a.(x x n) + m.n = 0 with (a, m) the axis line. The smallest singular vector of that system gives
+// the axis; its residual (a distance) says how well it holds. Planes alone (all normals parallel)
+// are excluded: some normals must turn around the axis.
+struct Symmetry {
+  bool axisymmetric = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero(), axis = Eigen::Vector3d::UnitZ();
+  double residual = INFINITY;  // RMS distance of the normal lines from the axis, in model units
+};
+Symmetry detect_axisymmetry(const Points& x, const Points& n, double L) {
+  Symmetry sym;
+  if (x.rows() < 20) return sym;
+  const Eigen::Vector3d c = x.colwise().mean().transpose();
+  Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Zero();
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    const Eigen::Vector3d xi = (x.row(i).transpose() - c) / L, ni = n.row(i).transpose();
+    Eigen::Matrix<double, 6, 1> r;
+    r << xi.cross(ni), ni;
+    M += r * r.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(M);
+  const Eigen::Matrix<double, 6, 1> v = es.eigenvectors().col(0);
+  const Eigen::Vector3d a = v.head<3>(), m = v.tail<3>();
+  if (a.norm() < 1e-6) return sym;
+  // the line {p : p x a = m'} with moment m' = -m (sign of the equation above), normalized
+  const Eigen::Vector3d dir = a.normalized();
+  const Eigen::Vector3d moment = -m / a.norm();
+  sym.axis = dir;
+  sym.point = c + L * dir.cross(moment);  // closest point of the axis to the centroid
+  // The algebraic fit weighs rows by their moment; refine the axis point geometrically: each normal
+  // line lies in a plane with the axis, so (x - p).(a x n) = 0; rows normalized, trimmed twice.
+  std::vector<double> res(static_cast<std::size_t>(x.rows()));
+  for (int pass = 0; pass < 3; ++pass) {
+    const Eigen::Vector3d u0 = dir.unitOrthogonal(), w0 = dir.cross(u0);
+    for (Eigen::Index i = 0; i < x.rows(); ++i) {
+      const Eigen::Vector3d k = dir.cross(n.row(i).transpose());
+      res[static_cast<std::size_t>(i)] = k.norm() > 0.2 ? std::abs((x.row(i).transpose() - sym.point).dot(k.normalized())) : -1;
+    }
+    std::vector<double> valid;
+    for (double r : res) if (r >= 0) valid.push_back(r);
+    if (valid.size() < 10) return sym;
+    std::nth_element(valid.begin(), valid.begin() + static_cast<long>(valid.size() * 8 / 10), valid.end());
+    const double cut = std::max(valid[valid.size() * 8 / 10], 1e-9 * L);
+    Eigen::Matrix2d N = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+    for (Eigen::Index i = 0; i < x.rows(); ++i) {
+      if (res[static_cast<std::size_t>(i)] < 0 || res[static_cast<std::size_t>(i)] > cut) continue;
+      const Eigen::Vector3d k = dir.cross(n.row(i).transpose()).normalized();
+      const Eigen::Vector2d row(k.dot(u0), k.dot(w0));  // k is orthogonal to dir: p moves in the plane
+      N += row * row.transpose();
+      rhs += row * (x.row(i).transpose() - sym.point).dot(k);
+    }
+    if (std::abs(N.determinant()) < 1e-12) return sym;
+    const Eigen::Vector2d dp = N.ldlt().solve(rhs);
+    sym.point += dp(0) * u0 + dp(1) * w0;
+  }
+  std::vector<double> dist;  // distances of the normal lines' planes from the final axis
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    const Eigen::Vector3d k = dir.cross(n.row(i).transpose());
+    if (k.norm() > 0.2) dist.push_back(std::abs((x.row(i).transpose() - sym.point).dot(k.normalized())));
+  }
+  if (dist.empty()) return sym;
+  std::nth_element(dist.begin(), dist.begin() + static_cast<long>(dist.size() / 2), dist.end());
+  sym.residual = dist[dist.size() / 2];
+  // normals must spread around the axis (not a single plane, not a single cylinder direction only)
+  Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
+  const Eigen::Vector3d u = dir.unitOrthogonal(), w = dir.cross(u);
+  for (Eigen::Index i = 0; i < n.rows(); ++i) {
+    const Eigen::Vector2d q(n.row(i).dot(u), n.row(i).dot(w));
+    spread += q * q.transpose();
+  }
+  spread /= static_cast<double>(n.rows());
+  const double lo = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues()(0);
+  sym.axisymmetric = sym.residual < 0.004 * L && lo > 0.05;
+  return sym;
+}
+
 Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
   const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
   const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
@@ -247,6 +325,25 @@ Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
   const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
   return (A - f * g.transpose()) / w;
 }
+
+// For an axisymmetric reference the rotation about its axis is free: choose the one that makes the
+// linear part of H twist least (maximal trace of A R), so that instances come out without an
+// arbitrary spin and the same input always gives the same mesh orientation.
+Eigen::Matrix4d untwist(const Eigen::Matrix4d& H, const Symmetry& sym) {
+  const Eigen::Matrix3d A = jacobian(H, sym.point);
+  const Eigen::Vector3d a = sym.axis;
+  Eigen::Matrix3d K;
+  K << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - a * a.transpose();
+  const double theta = std::atan2((A * K).trace(), (A * P).trace());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, a).toRotationMatrix();
+  Eigen::Matrix4d G = Eigen::Matrix4d::Identity();
+  G.topLeftCorner<3, 3>() = R;
+  G.topRightCorner<3, 1>() = sym.point - R * sym.point;
+  Eigen::Matrix4d out = H * G;
+  return out / out(3, 3);
+}
+
 
 struct Instance {
   Match match;
@@ -347,6 +444,22 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   const std::vector<Eigen::Index> dense_rows = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 1500);
   const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
   double best_cost_now = INFINITY;  // for early exit inside the cost while a RANSAC runs
+  // RMS distance of the mapped reference (dense subsample) to the target surface, model units: the
+  // fit error reported before and after the surface refinement.
+  auto rms_on_surface = [&](const Eigen::Matrix4d& H) {
+    double sq = 0;
+    for (const Eigen::Index i : dense_rows) {
+      const double e = surface_distance(T, apply_transform(H, R.dense.points.row(i).transpose()));
+      sq += std::isfinite(e) ? e * e : L * L;
+    }
+    return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows.size())));
+  };
+  const Symmetry sym = detect_axisymmetry(refine_pts, refine_nrm, L);
+  if (sym.axisymmetric) {
+    res.symmetry = "axisymmetric";
+    res.symmetry_point = sym.point;
+    res.symmetry_axis = sym.axis;
+  }
 
   auto bounds_ok = [&](const Eigen::Matrix4d& H, double* scale) {
     const Deformation df = deformation(H, rlo, rhi);
@@ -472,7 +585,9 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       }
       // Surface refinement (ICP-like): reference dense samples -> foot points on the target's tangent
       // planes, trimmed, projective least squares (affine if that leaves the bounds); kept while the
-      // error decreases.
+      // error decreases, and as a whole only if the RMS fit error did not grow.
+      const Eigen::Matrix4d H_unrefined = H;
+      const double rms_unrefined = rms_on_surface(H);
       {
         best_cost_now = INFINITY;
         double c0 = cost(H);
@@ -523,6 +638,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
           if (!(c1 < c0)) break;
           H = H2;
           c0 = c1;
+        }
+        if (rms_on_surface(H) > rms_unrefined) H = H_unrefined;
+        if (sym.axisymmetric) {  // the free spin about the axis: the least twisted one
+          const Eigen::Matrix4d Hu = untwist(H, sym);
+          if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rms_on_surface(H) + 1e-9 * L) H = Hu;
         }
         bounds_ok(H, &s);
       }
@@ -602,6 +722,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       mt.score = score;
       mt.max_error = err * s;
       mt.rms_error = std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows.size())));
+      mt.rms_error_unrefined = rms_unrefined;
       mt.scale = s;
       mt.pairs = static_cast<int>(explained);
       // Covered target region: dense samples near the mapped reference.

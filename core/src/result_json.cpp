@@ -28,6 +28,7 @@ std::string result_to_json(const Result& r, int indent) {
     o["score"] = num(m.score);
     o["max_error"] = num(m.max_error);
     o["rms_error"] = num(m.rms_error);
+    o["rms_error_unrefined"] = num(m.rms_error_unrefined);
     o["scale"] = num(m.scale);
     o["center"] = vec(m.center);
     o["bbox"] = {vec(m.bbox_min), vec(m.bbox_max)};
@@ -39,6 +40,8 @@ std::string result_to_json(const Result& r, int indent) {
   j["reference"] = stats(r.reference);
   j["target"] = stats(r.target);
   j["feature_size"] = num(r.feature_size);
+  j["symmetry"] = {{"kind", r.symmetry}};
+  if (r.symmetry != "none") j["symmetry"]["axis"] = {vec(r.symmetry_point), vec(r.symmetry_axis)};
   j["pairs"] = {{"shot", r.pairs_shot}, {"shot_si_filtered", r.pairs_ss}, {"clusters", r.clusters}};
   j["parameters"] = nlohmann::ordered_json::parse(params_to_json(r.params));
   nlohmann::ordered_json t = nlohmann::ordered_json::object();

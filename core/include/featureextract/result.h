@@ -15,6 +15,7 @@ struct Match {
   double score = 0;       ///< fraction of mapped reference samples lying on the target, in [0, 1]
   double max_error = 0;   ///< max distance of mapped reference key points to the target surface
   double rms_error = 0;   ///< RMS distance of mapped reference dense samples to the target surface
+  double rms_error_unrefined = 0;  ///< the same for the transform before the surface refinement
   double scale = 1;       ///< cube root of the volume ratio of the linear part of H
   Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< center of the matched target region
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero();
@@ -38,6 +39,10 @@ struct Result {
   std::vector<std::pair<std::string, double>> timings;  ///< stage -> seconds, in order
   std::vector<std::string> warnings;
   Params params;
+  /// Symmetry found in the reference: "none" or "axisymmetric" (then the axis through symmetry_point
+  /// along symmetry_axis; each instance's free spin about it is fixed to the least twisted one).
+  std::string symmetry = "none";
+  Eigen::Vector3d symmetry_point = Eigen::Vector3d::Zero(), symmetry_axis = Eigen::Vector3d::Zero();
 };
 
 /// The JSON document of the CLI contract (README, "Result JSON").
