@@ -1,14 +1,23 @@
 // featureextract: command-line front end of the extraction core.
 //   featureextract extract --reference REF --target TGT --output OUT.json [--config PARAMS.json]
 //                          [--seed N] [--threads N] [--set NAME=VALUE]... [--quiet]
+//   featureextract mesh --feature FEATURE_DIR --target TGT --output OUT_DIR [same options]
+//       extraction with the feature folder's geometry, then its FE mesh placed on every instance:
+//       OUT_DIR/instance_NN.inp, .msh, .feature.json and OUT_DIR/result.json (with a "transfer"
+//       entry per match: node projection and element quality before and after)
 // Exit codes: 0 done (also when nothing is found), 2 usage error, 3 unreadable or invalid input,
 // 4 the output could not be written, 1 internal error.
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
+#include "featureextract/transfer.h"
+
+#include <nlohmann/json.hpp>
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -42,6 +51,35 @@ struct Progress {
   }
 };
 
+// Writes text to path through a temporary file, so a failed run never leaves half a file.
+bool write_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text << "\n";
+    out.close();
+    if (!out) {
+      std::cerr << "featureextract: " << path << ": cannot write output\n";
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::cerr << "featureextract: " << path << ": cannot write output\n";
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
+nlohmann::ordered_json num(double x) { return std::isfinite(x) ? nlohmann::ordered_json(x) : nlohmann::ordered_json(nullptr); }
+
+nlohmann::ordered_json quality(const fe::QualitySummary& q) {
+  return {{"elements", q.elements}, {"inverted", q.inverted}, {"min_scaled_jacobian", num(q.min_scaled_jacobian)},
+          {"median_scaled_jacobian", num(q.median_scaled_jacobian)}, {"max_aspect_ratio", num(q.max_aspect_ratio)},
+          {"median_aspect_ratio", num(q.median_aspect_ratio)}, {"min_angle_deg", num(q.min_angle_deg)}};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -50,20 +88,31 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.footer(param_help());
   auto* ex = app.add_subcommand("extract", "find the instances of REF in TGT and write them as JSON");
-  std::string ref_path, tgt_path, out_path, config_path;
+  auto* me = app.add_subcommand("mesh", "find the instances of a reference feature folder's geometry in TGT and place its FE "
+                                        "mesh on each (OUT_DIR/instance_NN.inp/.msh/.feature.json, OUT_DIR/result.json)");
+  std::string ref_path, tgt_path, out_path, config_path, feature_dir;
   std::uint64_t seed = 0;
   int threads = -1;
   bool quiet = false;
+  double max_projection = fe::TransferOptions{}.max_projection;
   std::vector<std::string> sets;
   ex->add_option("--reference,-r", ref_path, "reference feature: STEP, IGES, BREP, STL, OBJ or PLY")->required();
-  ex->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
   ex->add_option("--output,-o", out_path, "result JSON file (written atomically)")->required();
-  ex->add_option("--config,-c", config_path, "JSON object of parameters (see below)");
-  auto* seed_opt = ex->add_option("--seed", seed, "seed of sampling and RANSAC (default 1)");
-  ex->add_option("--threads", threads, "worker threads (default 0 = all cores)");
-  ex->add_option("--set", sets, "override one parameter, NAME=VALUE (repeatable)");
-  ex->add_flag("--quiet,-q", quiet, "no progress on stderr");
-  ex->footer(param_help());
+  me->add_option("--feature,-f", feature_dir, "reference feature folder: feature.json, geometry, FE mesh (.inp or .msh)")->required();
+  me->add_option("--output,-o", out_path, "output folder (created)")->required();
+  me->add_option("--max-projection", max_projection, "largest move of a mapped node onto the target, fraction of the "
+                                                     "instance's diagonal (default 0.03)");
+  CLI::Option* seed_opt = nullptr;
+  for (CLI::App* sub : {ex, me}) {
+    sub->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
+    sub->add_option("--config,-c", config_path, "JSON object of parameters (see below)");
+    auto* so = sub->add_option("--seed", seed, "seed of sampling and RANSAC (default 1)");
+    if (sub == ex) seed_opt = so;
+    sub->add_option("--threads", threads, "worker threads (default 0 = all cores)");
+    sub->add_option("--set", sets, "override one parameter, NAME=VALUE (repeatable)");
+    sub->add_flag("--quiet,-q", quiet, "no progress on stderr");
+    sub->footer(param_help());
+  }
 
   try {
     app.parse(argc, argv);
@@ -93,7 +142,7 @@ int main(int argc, char** argv) {
       if (eq == std::string::npos) throw std::invalid_argument("--set expects NAME=VALUE, got '" + kv + "'");
       params = fe::params_from_json("{\"" + kv.substr(0, eq) + "\": " + kv.substr(eq + 1) + "}", params);
     }
-    if (*seed_opt) params.seed = seed;
+    if (*seed_opt || me->get_option("--seed")->count() > 0) params.seed = seed;
     if (threads >= 0) params.threads = threads;
     params.validate();
   } catch (const std::invalid_argument& e) {
@@ -101,14 +150,21 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  const bool mesh_mode = me->parsed();
   Progress progress;
   progress.quiet = quiet;
   fe::Result result;
+  fe::FeatureModel feature;
+  fe::TriangleMesh tgt;
   try {
+    if (mesh_mode) {
+      feature = fe::read_feature(feature_dir);
+      ref_path = feature.geometry_path;
+    }
     fe::TessellationOptions to;
     const fe::TriangleMesh ref = fe::read_shape(ref_path, to);
-    const fe::TriangleMesh tgt = fe::read_shape(tgt_path, fe::tessellation_for_feature(ref.diagonal(), to));
-    for (const fe::TriangleMesh* m : {&ref, &tgt})
+    tgt = fe::read_shape(tgt_path, fe::tessellation_for_feature(ref.diagonal(), to));
+    for (const fe::TriangleMesh* m : {&ref, static_cast<const fe::TriangleMesh*>(&tgt)})
       if (m->dropped_degenerate > 0 && !m->from_brep() && !quiet)  // BRepMesh's own slivers are routine
         std::cerr << "featureextract: " << m->source << ": warning: " << m->dropped_degenerate << " zero-area triangles ignored\n";
     result = fe::extract(ref, tgt, params, std::ref(progress));
@@ -123,28 +179,55 @@ int main(int argc, char** argv) {
     for (const auto& w : result.warnings) std::cerr << "featureextract: warning: " << w << "\n";
     std::cerr << "featureextract: " << result.matches.size() << " instance(s) found\n";
   }
-  const std::string tmp = out_path + ".tmp";
-  {
-    std::string text;
-    try {
-      text = fe::result_to_json(result);
-    } catch (const std::exception& e) {
-      std::cerr << "featureextract: " << out_path << ": cannot encode the result: " << e.what() << "\n";
-      return 1;
-    }
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text << "\n";
-    out.close();
-    if (!out) {
-      std::cerr << "featureextract: " << out_path << ": cannot write output\n";
-      std::remove(tmp.c_str());
-      return 4;
-    }
+  std::string text;
+  try {
+    text = fe::result_to_json(result);
+  } catch (const std::exception& e) {
+    std::cerr << "featureextract: " << out_path << ": cannot encode the result: " << e.what() << "\n";
+    return 1;
   }
-  if (std::rename(tmp.c_str(), out_path.c_str()) != 0) {
-    std::cerr << "featureextract: " << out_path << ": cannot write output\n";
-    std::remove(tmp.c_str());
+  if (!mesh_mode) return write_atomically(out_path, text) ? 0 : 4;
+
+  // mesh: the feature's FE mesh on every instance
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(out_path, ec);
+  if (ec || !fs::is_directory(out_path)) {
+    std::cerr << "featureextract: " << out_path << ": cannot create the output folder" << (ec ? ": " + ec.message() : "") << "\n";
     return 4;
   }
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(text);
+  j["feature"] = {{"folder", feature_dir}, {"name", feature.name}, {"mesh", feature.mesh_path},
+                  {"nodes", feature.mesh.nodes.rows()}, {"elements", feature.mesh.num_elements()}};
+  fe::TransferOptions topt;
+  topt.max_projection = max_projection;
+  for (std::size_t i = 0; i < result.matches.size(); ++i) {
+    char base[32];
+    std::snprintf(base, sizeof(base), "instance_%02zu", i + 1);
+    const std::string stem = (fs::path(out_path) / base).string();
+    progress("mesh transfer", static_cast<double>(i) / static_cast<double>(result.matches.size()));
+    nlohmann::ordered_json tj;
+    try {
+      const fe::TransferredMesh t = fe::transfer_mesh(feature.mesh, result.matches[i].transform, tgt, topt, feature.spec_json);
+      fe::write_inp(t.mesh, stem + ".inp");
+      fe::write_msh(t.mesh, stem + ".msh");
+      if (!write_atomically(stem + ".feature.json", t.spec_json)) return 4;
+      tj = {{"inp", std::string(base) + ".inp"}, {"msh", std::string(base) + ".msh"}, {"specification", std::string(base) + ".feature.json"},
+            {"nodes", t.mesh.nodes.rows()}, {"projected_nodes", t.projected}, {"unprojected_nodes", t.unprojected},
+            {"max_projection_distance", num(t.max_projection_distance)}, {"max_surface_distance", num(t.max_surface_distance)},
+            {"quality_before", quality(t.before_summary)}, {"quality_after", quality(t.after_summary)},
+            {"invalid_elements", t.invalid_elements}};
+    } catch (const std::runtime_error& e) {  // files that cannot be written
+      std::cerr << "featureextract: " << stem << ": " << e.what() << "\n";
+      return 4;
+    } catch (const std::exception& e) {  // an instance whose transform cannot carry the mesh
+      tj = {{"error", e.what()}};
+    }
+    j["matches"][i]["transfer"] = tj;
+  }
+  progress("mesh transfer", 1.0);
+  const std::string result_path = (fs::path(out_path) / "result.json").string();
+  if (!write_atomically(result_path, j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace))) return 4;
+  if (!quiet) std::cerr << "featureextract: " << result.matches.size() << " mesh(es) written to " << out_path << "\n";
   return 0;
 }

@@ -344,6 +344,87 @@ Eigen::Matrix4d untwist(const Eigen::Matrix4d& H, const Symmetry& sym) {
   return out / out(3, 3);
 }
 
+// Axisymmetric references: RANSAC pairs contradict each other (any spin about the axis is as good),
+// and a general projective fit can drift into a skewed map of a boss. This fit uses the symmetric
+// model instead: the target's own axis (found the same way as the reference's, on the target samples
+// around the current fit), then radial scale, axial scale and axial offset by point-to-plane least
+// squares, a few ICP rounds. Returns H unchanged when the target axis cannot be found.
+Eigen::Matrix4d fit_axisymmetric(const Eigen::Matrix4d& H, const Symmetry& rs, const Points& ref_pts, const Points& ref_nrm,
+                                 const ShapeDescription::Impl& T, double size) {
+  Points mapped(ref_pts.rows(), 3);
+  for (Eigen::Index i = 0; i < ref_pts.rows(); ++i) mapped.row(i) = apply_transform(H, ref_pts.row(i).transpose());
+  if (!mapped.allFinite()) return H;
+  const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(0.05 * size);
+  const Eigen::Vector3d hi = mapped.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(0.05 * size);
+  std::vector<Eigen::Index> near;
+  for (Eigen::Index j = 0; j < T.dense.points.rows(); ++j) {
+    const Eigen::Vector3d q = T.dense.points.row(j);
+    if ((q.array() >= lo.array()).all() && (q.array() <= hi.array()).all()) near.push_back(j);
+  }
+  if (near.size() < 50) return H;
+  Points tp(static_cast<Eigen::Index>(near.size()), 3), tn(static_cast<Eigen::Index>(near.size()), 3);
+  for (std::size_t k = 0; k < near.size(); ++k) {
+    tp.row(static_cast<Eigen::Index>(k)) = T.dense.points.row(near[k]);
+    tn.row(static_cast<Eigen::Index>(k)) = T.dense_normals.row(near[k]);
+  }
+  const Symmetry ts = detect_axisymmetry(tp, tn, size);
+  if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: target axis residual %.4f (size %.2f) point %.2f %.2f %.2f dir %.3f %.3f %.3f\n", ts.residual, size, ts.point.x(), ts.point.y(), ts.point.z(), ts.axis.x(), ts.axis.y(), ts.axis.z());
+  if (!(ts.residual < 0.01 * size)) return H;
+  const Eigen::Vector3d ar = rs.axis, cr = rs.point;
+  Eigen::Vector3d at = ts.axis;
+  if ((jacobian(H, cr) * ar).dot(at) < 0) at = -at;
+  const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(ar, at).toRotationMatrix();
+  // initial parameters from H
+  const double s0 = std::cbrt(std::abs(jacobian(H, cr).determinant()));
+  double sr = s0, sa = s0, t = (apply_transform(H, cr) - ts.point).dot(at);
+  auto model = [&](double r_, double a_, double t_) {
+    Eigen::Matrix4d M = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix3d lin = r_ * R * (Eigen::Matrix3d::Identity() - ar * ar.transpose()) + a_ * at * ar.transpose();
+    M.topLeftCorner<3, 3>() = lin;
+    M.topRightCorner<3, 1>() = ts.point + t_ * at - lin * cr;
+    return M;
+  };
+  for (int iter = 0; iter < 10; ++iter) {
+    const Eigen::Matrix4d M = model(sr, sa, t);
+    std::vector<Eigen::Vector4d> rows;  // (d sr, d sa, d t | rhs)
+    std::vector<double> err;
+    for (Eigen::Index i = 0; i < ref_pts.rows(); ++i) {
+      const Eigen::Vector3d x = ref_pts.row(i), d = x - cr;
+      const double h = d.dot(ar);
+      const Eigen::Vector3d rho = R * (d - h * ar);
+      const Eigen::Vector3d y = apply_transform(M, x);
+      const Eigen::Vector3d ny = (M.topLeftCorner<3, 3>().inverse().transpose() * ref_nrm.row(i).transpose()).normalized();
+      double d2;
+      const int j = T.dense_tree->nearest(y, &d2);
+      if (j < 0 || ny.dot(T.dense_normals.row(j)) < 0.5) continue;
+      const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
+      rows.emplace_back(rho.dot(n), h * at.dot(n), at.dot(n), (q - ts.point).dot(n));
+      err.push_back(std::sqrt(d2));
+    }
+    if (rows.size() < 30) return H;
+    std::vector<double> sorted = err;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    const double cut = std::max(3.0 * sorted[sorted.size() / 2], 1e-3 * size);
+    Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      if (err[k] > cut) continue;
+      const Eigen::Vector3d g = rows[k].head<3>();
+      N += g * g.transpose();
+      b += g * rows[k](3);
+    }
+    const Eigen::Vector3d sol = N.ldlt().solve(b);
+    if (!sol.allFinite() || sol(0) <= 0 || sol(1) <= 0) return H;
+    const bool done = std::abs(sol(0) - sr) < 1e-6 * s0 && std::abs(sol(1) - sa) < 1e-6 * s0 && std::abs(sol(2) - t) < 1e-6 * size;
+    sr = sol(0);
+    sa = sol(1);
+    t = sol(2);
+    if (done) break;
+  }
+  if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: axisymmetric fit sr %.3f sa %.3f t %.3f\n", sr, sa, t);
+  return model(sr, sa, t);
+}
+
 
 struct Instance {
   Match match;
@@ -640,6 +721,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
           c0 = c1;
         }
         if (rms_on_surface(H) > rms_unrefined) H = H_unrefined;
+        if (sym.axisymmetric) {  // the symmetric model fit, kept if it fits better
+          bounds_ok(H, &s);
+          const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
+          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr) && rms_on_surface(Ha) < rms_on_surface(H)) H = Ha;
+        }
         if (sym.axisymmetric) {  // the free spin about the axis: the least twisted one
           const Eigen::Matrix4d Hu = untwist(H, sym);
           if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rms_on_surface(H) + 1e-9 * L) H = Hu;

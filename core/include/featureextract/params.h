@@ -52,7 +52,7 @@ struct Params {
   double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target
   double min_key_agreement = 0.5;    ///< accept if this fraction of reference key points lands near target key points of similar SI
   double key_si_tolerance = 0.125;   ///< shape index difference allowed for that agreement
-  double volume_ratio_min = 0.3;     ///< bounds of |det| of the linear part (volume expansion ratio)
+  double volume_ratio_min = 0.2;     ///< bounds of |det| of the linear part (volume expansion ratio)
   double volume_ratio_max = 20.0;
   double axis_scale_min = 0.5;       ///< bounds of each singular value of the linear part
   double axis_scale_max = 3.2;

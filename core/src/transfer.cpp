@@ -1,0 +1,223 @@
+// Reference feature folders and the transfer of a reference FE mesh onto a found instance (issue 5).
+#include "featureextract/transfer.h"
+
+#include "featureextract/geometry.h"
+
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fe {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) { throw InputError(where + ": " + what); }
+
+Eigen::Matrix3d jacobian_at(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
+  const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
+  const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
+  const double w = g.dot(p) + H(3, 3);
+  const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
+  return (A - f * g.transpose()) / w;
+}
+
+}  // namespace
+
+Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                          const Eigen::Vector3d& c) {
+  // Voronoi regions of the triangle (Ericson, Real-Time Collision Detection, 5.1.5)
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+FeatureModel read_feature(const std::string& dir) {
+  namespace fs = std::filesystem;
+  FeatureModel f;
+  f.dir = dir;
+  const std::string spec_path = (fs::path(dir) / "feature.json").string();
+  std::ifstream in(spec_path);
+  if (!fs::is_directory(dir)) fail(dir, "not a folder (a reference feature is a folder with feature.json)");
+  if (!in) fail(spec_path, "cannot open (a reference feature folder needs feature.json)");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  f.spec_json = ss.str();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f.spec_json);
+  } catch (const std::exception& e) {
+    fail(spec_path, std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object()) fail(spec_path, "must hold a JSON object");
+  for (const char* key : {"geometry", "mesh"})
+    if (!j.contains(key) || !j[key].is_string()) fail(spec_path, std::string("needs \"") + key + "\": a file name in the folder");
+  f.name = j.value("name", fs::path(dir).filename().string());
+  f.geometry_path = (fs::path(dir) / j["geometry"].get<std::string>()).string();
+  f.mesh_path = (fs::path(dir) / j["mesh"].get<std::string>()).string();
+  if (!fs::exists(f.geometry_path)) fail(spec_path, "geometry file " + f.geometry_path + " does not exist");
+  f.mesh = read_fe_mesh(f.mesh_path);
+  if (f.mesh.num_elements() == 0) fail(f.mesh_path, "mesh has no elements");
+  return f;
+}
+
+TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H, const TriangleMesh& target,
+                              const TransferOptions& o, const std::string& spec_json) {
+  TransferredMesh out;
+  out.mesh = reference;
+  const Eigen::Index N = reference.nodes.rows();
+  if (N == 0) throw std::invalid_argument("transfer_mesh: the reference mesh has no nodes");
+
+  // Node normals of the reference (area-weighted element normals), mapped with the inverse transpose.
+  Points node_n = Points::Zero(N, 3);
+  for (const ElementBlock& b : reference.blocks) {
+    if (!is_shell(b.type)) continue;
+    for (Eigen::Index e = 0; e < b.conn.rows(); ++e) {
+      const Eigen::Vector3d x0 = reference.nodes.row(b.conn(e, 0)), x1 = reference.nodes.row(b.conn(e, 1)),
+                            x2 = reference.nodes.row(b.conn(e, 2));
+      Eigen::Vector3d n = (x1 - x0).cross(x2 - x0);
+      if (b.type == ElementType::Quad4) n = (x2 - x0).cross(reference.nodes.row(b.conn(e, 3)).transpose() - x1);
+      for (Eigen::Index k = 0; k < b.conn.cols(); ++k) node_n.row(b.conn(e, k)) += n.transpose();
+    }
+  }
+  Points mapped(N, 3), mapped_n = Points::Zero(N, 3);
+  for (Eigen::Index i = 0; i < N; ++i) {
+    const Eigen::Vector3d x = reference.nodes.row(i);
+    const Eigen::Vector3d y = apply_transform(H, x);
+    if (!y.allFinite()) throw std::invalid_argument("transfer_mesh: the transform sends a node to infinity");
+    mapped.row(i) = y;
+    const Eigen::Vector3d n = node_n.row(i);
+    if (n.norm() > 0) {
+      const Eigen::Vector3d m = jacobian_at(H, x).inverse().transpose() * n;
+      if (m.allFinite() && m.norm() > 0) mapped_n.row(i) = m.normalized();
+    }
+  }
+  const Eigen::Vector3d lo = mapped.colwise().minCoeff(), hi = mapped.colwise().maxCoeff();
+  const double reach = o.max_projection * (hi - lo).norm();
+
+  // Target triangles near the mapped mesh.
+  std::vector<Eigen::Index> region;
+  for (Eigen::Index t = 0; t < target.triangles.rows(); ++t) {
+    Eigen::Vector3d tlo = target.vertices.row(target.triangles(t, 0)), thi = tlo;
+    for (int k = 1; k < 3; ++k) {
+      tlo = tlo.cwiseMin(target.vertices.row(target.triangles(t, k)).transpose());
+      thi = thi.cwiseMax(target.vertices.row(target.triangles(t, k)).transpose());
+    }
+    if ((thi.array() < (lo.array() - reach)).any() || (tlo.array() > (hi.array() + reach)).any()) continue;
+    region.push_back(t);
+  }
+  std::vector<Eigen::Vector3d> tn(region.size());
+  for (std::size_t r = 0; r < region.size(); ++r) {
+    const Eigen::Index t = region[r];
+    const Eigen::Vector3d a = target.vertices.row(target.triangles(t, 0)), b = target.vertices.row(target.triangles(t, 1)),
+                          c = target.vertices.row(target.triangles(t, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    tn[r] = n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d::Zero();
+  }
+  auto corner = [&](std::size_t r, int k) -> Eigen::Vector3d { return target.vertices.row(target.triangles(region[r], k)); };
+
+  for (Eigen::Index i = 0; i < N; ++i) {
+    const Eigen::Vector3d y = mapped.row(i), m = mapped_n.row(i);
+    double best_agree = INFINITY, best_any = INFINITY;
+    Eigen::Vector3d q_agree = y, q_any = y;
+    for (std::size_t r = 0; r < region.size(); ++r) {
+      const Eigen::Vector3d q = closest_point_on_triangle(y, corner(r, 0), corner(r, 1), corner(r, 2));
+      const double d = (q - y).norm();
+      if (d > reach) continue;
+      if (d < best_any) { best_any = d; q_any = q; }
+      if (d < best_agree && (m.isZero() || tn[r].dot(m) >= o.normal_agreement)) { best_agree = d; q_agree = q; }
+    }
+    if (std::isfinite(best_agree) || std::isfinite(best_any)) {
+      const Eigen::Vector3d q = std::isfinite(best_agree) ? q_agree : q_any;
+      out.max_projection_distance = std::max(out.max_projection_distance, (q - y).norm());
+      out.mesh.nodes.row(i) = q;
+      ++out.projected;
+    } else {
+      ++out.unprojected;
+    }
+  }
+  // How far the final nodes are from the target triangles (0 for the projected ones, up to the
+  // triangulation's rounding; the unprojected ones tell how far the feature is off the surface).
+  for (Eigen::Index i = 0; i < N; ++i) {
+    const Eigen::Vector3d y = out.mesh.nodes.row(i);
+    double best = INFINITY;
+    for (std::size_t r = 0; r < region.size(); ++r)
+      best = std::min(best, (closest_point_on_triangle(y, corner(r, 0), corner(r, 1), corner(r, 2)) - y).norm());
+    out.max_surface_distance = std::max(out.max_surface_distance, best);
+  }
+
+  // Quality before and after; shells judged against their own normals mapped by H.
+  out.before = element_quality(reference);
+  const Points n0 = element_normals(reference);
+  Points n1 = Points::Zero(n0.rows(), 3);
+  Eigen::Index e = 0;
+  for (const ElementBlock& b : reference.blocks)
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r, ++e) {
+      if (!is_shell(b.type) || n0.row(e).isZero()) continue;
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (Eigen::Index k = 0; k < b.conn.cols(); ++k) c += reference.nodes.row(b.conn(r, k)).transpose();
+      c /= static_cast<double>(b.conn.cols());
+      const Eigen::Vector3d m = jacobian_at(H, c).inverse().transpose() * n0.row(e).transpose();
+      if (m.allFinite() && m.norm() > 0) n1.row(e) = m.normalized();
+    }
+  out.after = element_quality(out.mesh, &n1);
+  out.before_summary = summarize(out.before);
+  out.after_summary = summarize(out.after);
+  std::vector<int> invalid;
+  e = 0;
+  for (const ElementBlock& b : out.mesh.blocks)
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r, ++e)
+      if (out.after[static_cast<std::size_t>(e)].inverted && !out.before[static_cast<std::size_t>(e)].inverted) {
+        invalid.push_back(static_cast<int>(e));
+        out.invalid_elements.push_back(b.ids.empty() ? static_cast<long>(e + 1) : b.ids[static_cast<std::size_t>(r)]);
+      }
+  if (!invalid.empty()) out.mesh.element_sets["FE_INVALID"] = invalid;
+
+  // The specification travels with the mesh: its axis mapped, the transform recorded.
+  nlohmann::ordered_json spec;
+  try {
+    spec = nlohmann::ordered_json::parse(spec_json);
+  } catch (const std::exception&) {
+    spec = nlohmann::ordered_json::object();
+  }
+  if (!spec.is_object()) spec = nlohmann::ordered_json::object();
+  if (spec.contains("axis") && spec["axis"].is_object() && spec["axis"].contains("point") && spec["axis"].contains("direction")) {
+    try {
+      const auto p = spec["axis"]["point"].get<std::vector<double>>();
+      const auto d = spec["axis"]["direction"].get<std::vector<double>>();
+      if (p.size() == 3 && d.size() == 3) {
+        const Eigen::Vector3d P(p[0], p[1], p[2]), D(d[0], d[1], d[2]);
+        const Eigen::Vector3d P1 = apply_transform(H, P), D1 = (jacobian_at(H, P) * D).normalized();
+        spec["axis"]["point"] = {P1.x(), P1.y(), P1.z()};
+        spec["axis"]["direction"] = {D1.x(), D1.y(), D1.z()};
+      }
+    } catch (const std::exception&) {
+      // a malformed axis is carried unchanged
+    }
+  }
+  nlohmann::ordered_json h = nlohmann::ordered_json::array();
+  for (int r = 0; r < 4; ++r) h.push_back({H(r, 0), H(r, 1), H(r, 2), H(r, 3)});
+  spec["transform"] = h;
+  out.spec_json = spec.dump(1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+  return out;
+}
+
+}  // namespace fe
