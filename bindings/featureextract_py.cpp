@@ -2,6 +2,7 @@
 // numpy <-> Eigen, C++ exceptions <-> Python exceptions, the progress callback <-> Python callable.
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
+#include "featureextract/transfer.h"
 
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
@@ -162,6 +163,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("score", &fe::Match::score)
       .def_readonly("max_error", &fe::Match::max_error)
       .def_readonly("rms_error", &fe::Match::rms_error)
+      .def_readonly("rms_error_unrefined", &fe::Match::rms_error_unrefined, "RMS fit error before the surface refinement")
       .def_readonly("scale", &fe::Match::scale)
       .def_readonly("center", &fe::Match::center)
       .def_readonly("bbox_min", &fe::Match::bbox_min)
@@ -187,6 +189,9 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("timings", &fe::Result::timings)
       .def_readonly("warnings", &fe::Result::warnings)
       .def_readonly("params", &fe::Result::params)
+      .def_readonly("symmetry", &fe::Result::symmetry, "'none' or 'axisymmetric' (the reference's)")
+      .def_readonly("symmetry_point", &fe::Result::symmetry_point)
+      .def_readonly("symmetry_axis", &fe::Result::symmetry_axis)
       .def("to_json", [](const fe::Result& r) { return fe::result_to_json(r); }, "the CLI's result JSON");
 
   m.def("extract", [](const fe::TriangleMesh& ref, const fe::TriangleMesh& tgt, const fe::Params& p, const py::object& progress) {
@@ -226,4 +231,80 @@ PYBIND11_MODULE(_core, m) {
     const auto o = fe::tessellation_for_feature(L);
     return py::make_tuple(o.relative_deflection, o.absolute_deflection);
   }, "(relative, absolute) deflection to read a target searched for a feature of diagonal L");
+
+  // --- FE meshes and their transfer onto found instances (issue 5)
+  auto quality_arrays = [](const std::vector<fe::ElementQuality>& q) {
+    Eigen::VectorXd ar(static_cast<Eigen::Index>(q.size())), sj(ar.size()), ang(ar.size());
+    Eigen::Matrix<bool, Eigen::Dynamic, 1> inv(ar.size());
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      const auto k = static_cast<Eigen::Index>(i);
+      ar(k) = q[i].aspect_ratio;
+      sj(k) = q[i].scaled_jacobian;
+      ang(k) = q[i].min_angle_deg;
+      inv(k) = q[i].inverted;
+    }
+    py::dict d;
+    d["aspect_ratio"] = ar;
+    d["scaled_jacobian"] = sj;
+    d["min_angle_deg"] = ang;
+    d["inverted"] = inv;
+    return d;
+  };
+  auto summary_dict = [](const fe::QualitySummary& q) {
+    py::dict d;
+    d["elements"] = q.elements;
+    d["inverted"] = q.inverted;
+    d["min_scaled_jacobian"] = q.min_scaled_jacobian;
+    d["median_scaled_jacobian"] = q.median_scaled_jacobian;
+    d["max_aspect_ratio"] = q.max_aspect_ratio;
+    d["median_aspect_ratio"] = q.median_aspect_ratio;
+    d["min_angle_deg"] = q.min_angle_deg;
+    return d;
+  };
+  py::class_<fe::FeMesh>(m, "FeMesh", "A finite-element mesh (S3/S4 shells, C3D4/C3D8 solids) with named node and element sets.")
+      .def_readonly("nodes", &fe::FeMesh::nodes, "(N, 3) node coordinates")
+      .def_readonly("node_ids", &fe::FeMesh::node_ids, "external node ids")
+      .def_readonly("node_sets", &fe::FeMesh::node_sets, "name -> 0-based node indices")
+      .def_readonly("element_sets", &fe::FeMesh::element_sets, "name -> 0-based element indices (blocks in order)")
+      .def_property_readonly("num_elements", &fe::FeMesh::num_elements)
+      .def_property_readonly("blocks", [](const fe::FeMesh& x) {
+        py::list out;
+        for (const auto& b : x.blocks) out.append(py::make_tuple(fe::inp_type_name(b.type), b.ids, b.conn, b.elset));
+        return out;
+      }, "[(type 'S3'|'S4'|'C3D4'|'C3D8', external ids, (n, k) 0-based node indices, elset name)]");
+  m.def("read_fe_mesh", &fe::read_fe_mesh, py::arg("path"), "Reads a .inp or .msh mesh (raises InputError naming the file).");
+  m.def("write_inp", &fe::write_inp, py::arg("mesh"), py::arg("path"));
+  m.def("write_msh", &fe::write_msh, py::arg("mesh"), py::arg("path"), "gmsh ASCII 4.1");
+  m.def("element_quality", [quality_arrays](const fe::FeMesh& x) { return quality_arrays(fe::element_quality(x)); }, py::arg("mesh"),
+        "Per element: aspect_ratio, scaled_jacobian, min_angle_deg, inverted (numpy arrays).");
+  py::class_<fe::FeatureModel>(m, "FeatureModel", "A reference feature folder: feature.json, geometry, FE mesh.")
+      .def_readonly("dir", &fe::FeatureModel::dir)
+      .def_readonly("name", &fe::FeatureModel::name)
+      .def_readonly("geometry_path", &fe::FeatureModel::geometry_path)
+      .def_readonly("mesh_path", &fe::FeatureModel::mesh_path)
+      .def_readonly("mesh", &fe::FeatureModel::mesh)
+      .def_readonly("spec_json", &fe::FeatureModel::spec_json);
+  m.def("read_feature", &fe::read_feature, py::arg("dir"), "Reads a reference feature folder (raises InputError naming the file).");
+  py::class_<fe::TransferredMesh>(m, "TransferredMesh", "A reference mesh placed on one found instance.")
+      .def_readonly("mesh", &fe::TransferredMesh::mesh)
+      .def_property_readonly("quality_before", [quality_arrays](const fe::TransferredMesh& t) { return quality_arrays(t.before); })
+      .def_property_readonly("quality_after", [quality_arrays](const fe::TransferredMesh& t) { return quality_arrays(t.after); })
+      .def_property_readonly("summary_before", [summary_dict](const fe::TransferredMesh& t) { return summary_dict(t.before_summary); })
+      .def_property_readonly("summary_after", [summary_dict](const fe::TransferredMesh& t) { return summary_dict(t.after_summary); })
+      .def_readonly("projected", &fe::TransferredMesh::projected)
+      .def_readonly("unprojected", &fe::TransferredMesh::unprojected)
+      .def_readonly("max_projection_distance", &fe::TransferredMesh::max_projection_distance)
+      .def_readonly("max_surface_distance", &fe::TransferredMesh::max_surface_distance)
+      .def_readonly("invalid_elements", &fe::TransferredMesh::invalid_elements)
+      .def_readonly("spec_json", &fe::TransferredMesh::spec_json);
+  m.def("transfer_mesh", [](const fe::FeMesh& mesh, const Eigen::Matrix4d& H, const fe::TriangleMesh& target, double max_projection,
+                            const std::string& spec_json) {
+        fe::TransferOptions o;
+        o.max_projection = max_projection;
+        py::gil_scoped_release release;
+        return fe::transfer_mesh(mesh, H, target, o, spec_json);
+      },
+      py::arg("mesh"), py::arg("transform"), py::arg("target"), py::arg("max_projection") = fe::TransferOptions{}.max_projection,
+      py::arg("spec_json") = "{}",
+      "Maps the mesh's nodes by the 4x4 transform, moves them onto the target surface, measures quality before and after.");
 }

@@ -11,14 +11,22 @@ core (`featureextract._core`); the same function serves the CLI, the FreeCAD wor
     for m in result.matches:
         print(m.score, m.center, m.faces)
 
+FE meshes (issue 5): fx.read_feature(folder) reads a reference feature (geometry, FE mesh, meshing
+specification); fx.transfer_mesh(feature.mesh, match.transform, target) places the mesh on a found
+instance (nodes on the target surface, quality before and after); fx.write_inp / fx.write_msh save it.
+
 Long runs release the GIL; pass progress=callable(stage, fraction) and return False from it to cancel
 (fx.Cancelled is raised). Bad input raises fx.InputError (a ValueError) naming the file.
 """
-from ._core import (Cancelled, Description, InputError, Match, Mesh, Params, PreparedTarget, Result,  # noqa: F401
-                    ShapeStats, describe, extract as _extract, param_table, read_brep_string, read_shape, tessellation_for_feature)
+from ._core import (Cancelled, Description, FeatureModel, FeMesh, InputError, Match, Mesh, Params, PreparedTarget,  # noqa: F401
+                    Result, ShapeStats, TransferredMesh, describe, element_quality, extract as _extract, param_table,
+                    read_brep_string, read_feature, read_fe_mesh, read_shape, tessellation_for_feature, transfer_mesh,
+                    write_inp, write_msh)
 
-__all__ = ["Cancelled", "Description", "describe", "InputError", "Match", "Mesh", "Params", "PreparedTarget", "Result", "ShapeStats", "extract",
-           "make_params", "param_table", "read_brep_string", "read_shape", "read_target"]
+__all__ = ["Cancelled", "Description", "describe", "element_quality", "FeatureModel", "FeMesh", "InputError", "Match", "Mesh",
+           "Params", "PreparedTarget", "Result", "ShapeStats", "TransferredMesh", "extract", "make_params", "param_table",
+           "read_brep_string", "read_feature", "read_fe_mesh", "read_shape", "read_target", "transfer_mesh", "write_inp",
+           "write_msh"]
 
 
 def make_params(**values):

@@ -18,6 +18,12 @@ import Part  # noqa: E402
 
 from freecad.feature_extract import api  # noqa: E402
 
+# the workbench under test, not another checkout's that the user's Mod folder may link to
+if not os.path.realpath(api.__file__).startswith(os.path.realpath(os.environ["FE_WB"])):
+    print(f"FAIL: testing {api.__file__}, not the workbench in {os.environ['FE_WB']} (re-run ./setup.sh here)")
+    sys.stdout.flush()
+    os._exit(1)
+
 MODELS = os.environ["FE_MODELS"]
 
 
@@ -115,6 +121,44 @@ class App_(unittest.TestCase):
             self.assertEqual(sorted(o.Name for o in doc2.Objects), ["Part"])
         finally:
             App.closeDocument(doc2.Name)
+
+    def test_feature_meshes_placed_saved_and_reopened(self):
+        """Issue 5: a reference feature folder's FE mesh on every boss, as FEM mesh objects with their
+        quality, saved and restored; a bad folder changes nothing."""
+        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+        part = self.doc.addObject("Part::Feature", "Bosses")
+        part.Shape = Part.read(os.path.join(MODELS, "suite", "bosses.step"))
+        self.doc.recompute()
+        before = sorted(o.Name for o in self.doc.Objects)
+        with self.assertRaises(api.FeatureExtractError):
+            api.place_meshes(part, os.path.join(features, "no_such_feature"))
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), before)
+        meshes = api.place_meshes(part, os.path.join(features, "boss"), seed=1)
+        self.assertEqual(len(meshes), 5)
+        for m in meshes:
+            self.assertEqual(m.TypeId, "Fem::FemMeshObjectPython")
+            self.assertEqual(m.FemMesh.NodeCount, 229)
+            self.assertEqual(m.FemMesh.FaceCount, 228)
+            self.assertEqual(m.InvertedElements, 0)
+            self.assertEqual(m.UnprojectedNodes, 0)
+            self.assertGreater(m.MinScaledJacobian, 0.5)
+            self.assertIn("BOLT_RIGID", m.NodeSets)
+            self.assertEqual(len(m.ScaledJacobian), 228)
+            self.assertIsNotNone(m.Result)
+            # every node on the part's surface (within the tessellation's deflection)
+            worst = max(part.Shape.distToShape(Part.Vertex(v))[0] for v in m.FemMesh.Nodes.values())
+            self.assertLess(worst, 0.05)
+        path = os.path.join(tempfile.mkdtemp(), "meshes.FCStd")
+        saved = sorted((m.Name, m.FemMesh.NodeCount, round(m.MinScaledJacobian, 9)) for m in meshes)
+        self.doc.saveAs(path)
+        App.closeDocument(self.doc.Name)
+        self.doc = App.openDocument(path)
+        again = sorted((o.Name, o.FemMesh.NodeCount, round(o.MinScaledJacobian, 9)) for o in self.doc.Objects
+                       if o.TypeId == "Fem::FemMeshObjectPython")
+        self.assertEqual(again, saved)
+        # placing again replaces the meshes (and results) instead of piling them up
+        api.place_meshes(self.doc.getObject("Bosses"), os.path.join(features, "boss"), seed=1)
+        self.assertEqual(len([o for o in self.doc.Objects if o.TypeId == "Fem::FemMeshObjectPython"]), 5)
 
     def test_bad_input_leaves_the_document_unchanged(self):
         before = sorted(o.Name for o in self.doc.Objects)

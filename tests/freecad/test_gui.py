@@ -36,6 +36,8 @@ def main():
     Gui.activateWorkbench("FeatureExtractWorkbench")
     check(Gui.activeWorkbench().name() == "FeatureExtractWorkbench", "workbench activates")
     from freecad.feature_extract import api, commands, taskpanel
+    check(os.path.realpath(api.__file__).startswith(os.path.realpath(os.environ["FE_WB"])),
+          f"the workbench under test is {os.environ['FE_WB']} ({api.__file__})")
     commands.INTERACTIVE = False
 
     def wait_for(cond, seconds):
@@ -154,6 +156,43 @@ def main():
     base = part.ViewObject.ShapeColor[:3]
     check(all(abs(c[k] - base[k]) < 0.02 for c in part.ViewObject.DiffuseColor for k in range(3)), "colors cleared")
     check(len(api.results_for(part)) == 5, "results kept after clearing colors")
+
+    # issue 5: a feature folder's FE mesh placed on every boss, in the background, colored by quality
+    doc2 = App.newDocument("gui_mesh")
+    bosses = doc2.addObject("Part::Feature", "Bosses")
+    bosses.Shape = Part.read(os.path.join(os.environ["FE_MODELS"], "suite", "bosses.step"))
+    doc2.recompute()
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(bosses)
+    features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+    commands.PlaceMesh().Activated(feature_dir=os.path.join(features, "boss"))
+    check(commands.PlaceMesh.running is not None, "mesh placement runs in the background")
+    ticks = wait_for(lambda: commands.PlaceMesh.running is None, 120)
+    check(ticks > 5, f"UI kept processing events while placing meshes ({ticks} polls)")
+    meshes = [o for o in doc2.Objects if o.TypeId == "Fem::FemMeshObjectPython"]
+    check(len(meshes) == 5, f"5 FEM mesh objects ({len(meshes)})")
+    wait_for(lambda: False, 0.5)
+    from freecad.feature_extract.objects import color_by_quality
+    for m in meshes:  # (FemGui can set ElementColor but not read it back: the pixels below tell)
+        check(len(m.ElementIds) == m.FemMesh.FaceCount and color_by_quality(m), f"{m.Label}: elements colored by quality")
+    Gui.Selection.clearSelection()
+    bosses.ViewObject.Transparency = 60
+    view = Gui.ActiveDocument.ActiveView
+    view.viewIsometric()
+    view.fitAll()
+    wait_for(lambda: False, 0.5)
+    w, h = view.getSize()
+    shot = os.environ.get("FE_MESH_SHOT", "gui_mesh_screenshot.png")
+    view.saveImage(shot, w, h, "White")
+    img = QtGui.QImage(shot)
+    green = 0
+    for m in meshes:  # around the top of each boss: good elements, green (the mesh lines are dark)
+        top = max(m.FemMesh.Nodes.values(), key=lambda v: v.z)
+        x, y = view.getPointOnScreen(App.Vector(m.Result.Center.x, m.Result.Center.y, top.z))
+        px = [QtGui.QColor(img.pixel(int(x + dx), int(h - 1 - y + dy))) for dx in range(-8, 9) for dy in range(-8, 9)]
+        share = sum(c.greenF() > c.redF() + 0.1 and c.greenF() > c.blueF() + 0.1 for c in px) / len(px)
+        green += share > 0.05
+    check(green >= 4, f"pixels on the meshes carry the quality color ({green}/5 green)")
 
 
 try:

@@ -154,3 +154,27 @@ def test_prepared_target_reuses_its_descriptors(ref, tgt):
     assert [m.faces for m in first.matches] == [m.faces for m in second.matches]
     fx.extract(ref, prepared, dense_spacing=0.02)  # other descriptor parameters: a new description
     assert prepared.descriptions_built == 2
+
+
+def test_feature_folder_and_mesh_transfer(tmp_path):
+    """Issue 5 from Python: a feature folder, its mesh placed on every boss, written as .inp and .msh."""
+    features = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "Resources", "features")
+    feature = fx.read_feature(os.path.join(features, "boss"))
+    assert feature.mesh.num_elements == 228 and "BOLT_RIGID" in feature.mesh.node_sets
+    ref = fx.read_shape(feature.geometry_path)
+    tgt = fx.read_target(os.path.join(MODELS, "suite", "bosses.step"), ref)
+    result = fx.extract(ref, tgt, seed=1)
+    assert result.symmetry == "axisymmetric" and len(result.matches) == 5
+    for m in result.matches:
+        assert m.rms_error <= m.rms_error_unrefined
+        t = fx.transfer_mesh(feature.mesh, m.transform, tgt, spec_json=feature.spec_json)
+        assert t.unprojected == 0 and t.max_surface_distance < 1e-6
+        assert t.summary_after["inverted"] == 0 and not t.quality_after["inverted"].any()
+        assert t.quality_after["scaled_jacobian"].shape == (228,)
+    fx.write_inp(t.mesh, str(tmp_path / "boss.inp"))
+    fx.write_msh(t.mesh, str(tmp_path / "boss.msh"))
+    for name in ("boss.inp", "boss.msh"):
+        back = fx.read_fe_mesh(str(tmp_path / name))
+        assert np.allclose(back.nodes, t.mesh.nodes) and back.node_sets["BOLT_RIGID"] == t.mesh.node_sets["BOLT_RIGID"]
+    with pytest.raises(fx.InputError, match="feature.json"):
+        fx.read_feature(str(tmp_path))

@@ -233,8 +233,7 @@ def add_results(target_obj, reference, result):
             group = doc.addObject("App::DocumentObjectGroup", RESULT_GROUP)
             created.append(group)
             group.Label = "Similar features"
-        old = [o for o in group.Group if getattr(o, "Target", None) == target_obj
-               and getattr(o, "Reference", None) == ref_obj and getattr(o, "ReferenceText", ref_text) == ref_text]
+        old = [o for o in results_for(target_obj) if getattr(o, "Reference", None) == ref_obj and getattr(o, "ReferenceText", ref_text) == ref_text]
         new = []
         for i, m in enumerate(result.matches):
             obj = doc.addObject("App::FeaturePython", "Similar")
@@ -267,6 +266,103 @@ def add_results(target_obj, reference, result):
     return new
 
 
+# ---------------------------------------------------------------------------------------------
+# FE meshes of a reference feature folder on every instance (issue 5)
+
+def quality_color(sj):
+    """Element color by scaled Jacobian: green (good) through yellow and orange to red (inverted)."""
+    if sj < 0:
+        return (0.85, 0.0, 0.0)
+    if sj < 0.3:
+        return (1.0, 0.45, 0.0)
+    if sj < 0.6:
+        return (1.0, 0.85, 0.0)
+    return (0.2, 0.75, 0.25)
+
+
+def _fem_mesh(fe_mesh):
+    """A FreeCAD FemMesh from the core's FeMesh (ids kept, so the .inp and the document agree)."""
+    import Fem
+    m = Fem.FemMesh()
+    nodes = fe_mesh.nodes
+    ids = list(fe_mesh.node_ids) or list(range(1, len(nodes) + 1))
+    for nid, (x, y, z) in zip(ids, nodes):
+        m.addNode(float(x), float(y), float(z), int(nid))
+    element_ids = []
+    for kind, eids, conn, _ in fe_mesh.blocks:
+        for eid, row in zip(eids, conn):
+            corners = [int(ids[k]) for k in row]
+            if kind in ("S3", "S4"):
+                m.addFace(corners, int(eid))
+            else:
+                m.addVolume(corners, int(eid))
+            element_ids.append(int(eid))
+    return m, element_ids
+
+
+def place_meshes(target_obj, feature_dir, progress=None, **params):
+    """Finds the instances of a reference feature folder's geometry on `target_obj` and places the
+    feature's FE mesh on each: one result object per instance (as extract() makes) and one FEM mesh
+    object (Fem::FemMeshObject) per instance, colored by element quality, in the result group.
+    Returns the FEM mesh objects. On any error the document is left as it was."""
+    import os
+    try:
+        feature = fx.read_feature(feature_dir)
+    except ValueError as e:
+        raise FeatureExtractError(str(e))
+    job = prepare(target_obj, feature.geometry_path, **params)
+    result = _cache.pop(job.key, None) or run(job, progress)
+    _cache.pop(job.key, None)
+    ref = fx.read_shape(feature.geometry_path)
+    rel, absolute = fx.tessellation_for_feature(ref.diagonal)
+    tgt = fx.read_brep_string(job.target_brep, job.target_label, rel, absolute)
+    transferred = [fx.transfer_mesh(feature.mesh, m.transform, tgt, spec_json=feature.spec_json) for m in result.matches]
+    doc = target_obj.Document
+    from .objects import FeatureMesh
+    with _changes(doc, "Place FE meshes") as created:
+        results = add_results(target_obj, feature.geometry_path, result)
+        created.extend(results)
+        group = doc.getObject(RESULT_GROUP)
+        for old in [o for o in meshes_for(target_obj) if getattr(o, "FeatureFolder", "") == feature_dir]:
+            doc.removeObject(old.Name)
+        meshes = []
+        for i, (r, t) in enumerate(zip(results, transferred)):
+            obj = doc.addObject("Fem::FemMeshObjectPython", "FEMesh")
+            created.append(obj)
+            FeatureMesh(obj)
+            obj.Label = f"FE mesh {i + 1} ({os.path.basename(os.path.normpath(feature_dir))})"
+            femmesh, element_ids = _fem_mesh(t.mesh)
+            obj.FemMesh = femmesh
+            obj.Target = target_obj
+            obj.Result = r
+            obj.FeatureFolder = feature_dir
+            obj.Specification = t.spec_json
+            obj.ElementIds = element_ids
+            sj = t.quality_after["scaled_jacobian"]
+            obj.ScaledJacobian = [float(x) for x in sj]
+            summary = t.summary_after
+            obj.MinScaledJacobian = float(summary["min_scaled_jacobian"])
+            obj.InvertedElements = int(summary["inverted"])
+            obj.UnprojectedNodes = int(t.unprojected)
+            obj.NodeSets = sorted(t.mesh.node_sets)
+            if App.GuiUp:
+                from .objects import ViewProviderFeatureMesh
+                ViewProviderFeatureMesh(obj.ViewObject)
+            group.addObject(obj)
+            meshes.append(obj)
+        doc.recompute()
+    return meshes
+
+
 def results_for(target_obj):
+    """The found instances (result objects) on target_obj."""
     group = target_obj.Document.getObject(RESULT_GROUP)
-    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj]
+    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
+            and getattr(o, "Proxy", None).__class__.__name__ == "ExtractionResult"]
+
+
+def meshes_for(target_obj):
+    """The FE meshes placed on target_obj."""
+    group = target_obj.Document.getObject(RESULT_GROUP)
+    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
+            and getattr(o, "Proxy", None).__class__.__name__ == "FeatureMesh"]

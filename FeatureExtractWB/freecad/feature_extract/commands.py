@@ -1,5 +1,7 @@
 """The workbench's commands. Each one that changes the document goes through Gui.doCommand with a
 plain call of `freecad.feature_extract.api`, so the macro recorder captures a replayable script."""
+import os
+
 import FreeCAD as App
 import FreeCADGui as Gui
 
@@ -147,6 +149,88 @@ class Extract:
         Gui.Control.showDialog(ExtractPanel(target, refs))
 
 
+class PlaceMesh:
+    """Runs the extraction with a reference feature folder's geometry in the background (progress
+    dialog with Cancel), then places the feature's FE mesh on every instance by a recorded
+    `api.place_meshes(...)` call."""
+
+    running = None  # the current run (tests drive it)
+
+    def GetResources(self):
+        return {"Pixmap": icon("PlaceMesh"), "MenuText": translate("FeatureExtract", "Place feature FE meshes"),
+                "ToolTip": translate("FeatureExtract", "Find the instances of a reference feature folder (geometry + FE mesh + "
+                                                       "meshing specification) on the selected solid and place its mesh on each, "
+                                                       "colored by element quality")}
+
+    def IsActive(self):
+        return App.ActiveDocument is not None and PlaceMesh.running is None
+
+    def Activated(self, feature_dir=None):
+        from PySide import QtCore, QtGui
+        import threading
+        from . import REPO, api
+        target = _selected_solid()
+        if target is None:
+            report_error(translate("FeatureExtract", "Select the solid to mesh first."))
+            return
+        if feature_dir is None:
+            feature_dir = QtGui.QFileDialog.getExistingDirectory(
+                Gui.getMainWindow(), translate("FeatureExtract", "Reference feature folder (with feature.json)"),
+                os.path.join(REPO, "Resources", "features"))
+            if not feature_dir:
+                return
+        try:
+            import featureextract as fx
+            feature = fx.read_feature(feature_dir)
+            job = api.prepare(target, feature.geometry_path)
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+            return
+        dialog = QtGui.QProgressDialog(translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
+                                       translate("FeatureExtract", "Cancel"), 0, 100, Gui.getMainWindow())
+        dialog.setWindowTitle(translate("FeatureExtract", "Place feature FE meshes"))
+        dialog.setMinimumDuration(0)
+        state = {"progress": 0.0, "outcome": None, "cancel": False}
+
+        def progress(stage, fraction):
+            state["progress"] = fraction
+            return not state["cancel"]
+
+        def work():
+            try:
+                state["outcome"] = ("ok", api.run(job, progress))
+            except fx.Cancelled:
+                state["outcome"] = ("cancelled", None)
+            except Exception as e:  # noqa: BLE001
+                state["outcome"] = ("error", str(e))
+
+        thread = threading.Thread(target=work, daemon=True)
+        timer = QtCore.QTimer()
+
+        def poll():
+            dialog.setValue(int(100 * state["progress"]))
+            if dialog.wasCanceled():
+                state["cancel"] = True
+            if thread.is_alive():
+                return
+            timer.stop()
+            dialog.close()
+            PlaceMesh.running = None
+            kind, value = state["outcome"] or ("error", "the run stopped without a result")
+            if kind == "ok":
+                _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
+                    f".getObject('{target.Name}'), {feature_dir!r})")
+            elif kind == "error":
+                report_error(value)
+            else:
+                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
+
+        timer.timeout.connect(poll)
+        PlaceMesh.running = (thread, timer, dialog, state)
+        thread.start()
+        timer.start(100)
+
+
 class ClearColors:
     def GetResources(self):
         return {"Pixmap": icon("ClearColors"), "MenuText": translate("FeatureExtract", "Clear result colors"),
@@ -192,7 +276,7 @@ def watch_selection(on):
 
 
 COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
-            "FE_Extract": Extract, "FE_ClearColors": ClearColors}
+            "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_ClearColors": ClearColors}
 
 
 def register():

@@ -55,6 +55,64 @@ class ExtractionResult(_Stateless):
         pass
 
 
+class FeatureMesh(_Stateless):
+    """A reference feature's FE mesh placed on one found instance (Fem::FemMeshObjectPython: the mesh is
+    saved in the .FCStd; the element quality too, so its colors come back on reopening)."""
+
+    def __init__(self, obj):
+        obj.Proxy = self
+        add = obj.addProperty
+        add("App::PropertyLink", "Target", "Feature mesh", "The part the mesh was placed on")
+        add("App::PropertyLink", "Result", "Feature mesh", "The found instance it was placed on")
+        add("App::PropertyPath", "FeatureFolder", "Feature mesh", "Reference feature folder (geometry, mesh, specification)")
+        add("App::PropertyString", "Specification", "Feature mesh", "Meshing specification, its axis mapped onto this instance")
+        add("App::PropertyIntegerList", "ElementIds", "Quality", "Element ids, in the order of ScaledJacobian")
+        add("App::PropertyFloatList", "ScaledJacobian", "Quality", "Scaled Jacobian per element (1 perfect, < 0 inverted)")
+        add("App::PropertyFloat", "MinScaledJacobian", "Quality", "Worst element")
+        add("App::PropertyInteger", "InvertedElements", "Quality", "Elements inverted by the transfer")
+        add("App::PropertyInteger", "UnprojectedNodes", "Quality", "Nodes too far from the target surface to be moved onto it")
+        add("App::PropertyStringList", "NodeSets", "Feature mesh", "Named node sets carried from the reference mesh")
+
+    def execute(self, obj):
+        pass
+
+
+class ViewProviderFeatureMesh(_Stateless):
+    """Colors the elements by quality (green good, yellow fair, orange poor, red inverted)."""
+
+    def __init__(self, vobj):
+        vobj.Proxy = self
+        try:
+            vobj.DisplayMode = "Faces & Wireframe"  # node dots would hide the quality colors
+        except Exception:  # noqa: BLE001
+            pass
+
+    def attach(self, vobj):
+        self.Object = vobj.Object
+        from PySide import QtCore
+        QtCore.QTimer.singleShot(0, lambda: color_by_quality(vobj.Object))
+
+    def getIcon(self):
+        return icon("PlaceMesh")
+
+    def updateData(self, obj, prop):
+        if prop in ("ScaledJacobian", "FemMesh"):
+            color_by_quality(obj)
+
+
+def color_by_quality(obj):
+    """Element colors from the stored quality (deferred callers: the view provider must exist)."""
+    vo = getattr(obj, "ViewObject", None)
+    if vo is None or not obj.ElementIds or len(obj.ElementIds) != len(obj.ScaledJacobian):
+        return False
+    from .api import quality_color
+    try:
+        vo.ElementColor = {int(e): quality_color(q) for e, q in zip(obj.ElementIds, obj.ScaledJacobian)}
+    except Exception:  # noqa: BLE001  (an older FemGui without ElementColor: plain mesh color)
+        return False
+    return True
+
+
 def face_names(result_obj):
     return [f"Face{f}" for f in result_obj.Faces]
 
