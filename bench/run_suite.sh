@@ -17,5 +17,7 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 [ -f "$BUILD/CMakeCache.txt" ] || ./setup.sh
 cmake --build "$BUILD" -j2 >/dev/null
-"$BUILD/fe_make_models" "$BUILD/models" --suite --scaling >/dev/null
+REAL="$(pwd)/../shared/data/real"   # the real parts beside the checkout (not copied into the repo)
+[ -d "$REAL" ] || { echo "run_suite: $REAL not found: the real-part case is skipped" >&2; REAL=""; }
+"$BUILD/fe_make_models" "$BUILD/models" --suite ${REAL:+--real "$REAL"} --scaling >/dev/null
 exec /usr/bin/python3 bench/suite.py --build "$BUILD" "$@"

@@ -62,6 +62,9 @@ def methods(build, selected):
     table = {
         "ours": lambda ref, tgt, out, seed: [os.path.join(build, "featureextract"), "extract", "-q", "-r", ref["step"],
                                              "-t", tgt["step"], "-o", out, "--seed", str(seed)],
+        "ours-cylindrical": lambda ref, tgt, out, seed: [os.path.join(build, "featureextract"), "extract", "-q", "-r",
+                                                         ref["step"], "-t", tgt["step"], "-o", out, "--seed", str(seed),
+                                                         "--set", "ridge_rut_spacing=0.05"],
         "pcl-gc": lambda ref, tgt, out, seed: [os.path.join(build, "fe_pcl_peer"), "--reference", ref["stl"],
                                                "--target", tgt["stl"], "--output", out, "--seed", str(seed)],
         "open3d": lambda ref, tgt, out, seed: ["/usr/bin/python3", o3d, "--reference", ref["stl"], "--target", tgt["stl"],
@@ -180,7 +183,10 @@ def score_case(case, target, ref_samples, result):
         used_t.add(j)
         matched.append((i, j, v))
     tp = len(matched)
-    return {"tp": tp, "fp": len(preds) - tp, "fn": len(truth) - tp, "truth": len(truth), "found": len(preds),
+    ms = result.get("matches", [])
+    before_after = [(ms[i]["rms_error_unrefined"], ms[i]["rms_error"], ms[i].get("scale", 1.0)) for i, _, _ in matched
+                    if "rms_error_unrefined" in ms[i] and ms[i]["rms_error_unrefined"] is not None]
+    return {"before_after": before_after, "tp": tp, "fp": len(preds) - tp, "fn": len(truth) - tp, "truth": len(truth), "found": len(preds),
             "iou": [v for _, _, v in matched], "fit": [preds[i]["fit"] for i, _, _ in matched],
             "missed": [truth[j]["label"] for j in range(len(truth)) if j not in used_t]}
 
@@ -216,6 +222,7 @@ def run_suite(args):
         if ref["stl"] not in ref_cache:
             v, t, _ = load_mesh(ref["stl"])
             ref_cache[ref["stl"]] = sample_surface(v, t, 20000)
+            ref_cache[ref["stl"] + "#diag"] = float(np.linalg.norm(v.max(0) - v.min(0)))
         target = Target(tgt["step"])
         for name, cmd in ms.items():
             out = os.path.join(out_dir, f"{case['name']}.{name}.json")
@@ -226,6 +233,8 @@ def run_suite(args):
                 result = json.load(open(out))
                 s = score_case(case, target, ref_cache[ref["stl"]], result)
                 s["timings"] = result.get("timings", {})
+                L = ref_cache[ref["stl"] + "#diag"]
+                s["before_after"] = [(b / (L * sc), a / (L * sc)) for b, a, sc in s["before_after"]]
             else:
                 s = {"tp": 0, "fp": 0, "fn": len(case["instances"]), "truth": len(case["instances"]), "found": 0,
                      "iou": [], "fit": [], "missed": ["(run failed)"], "error": run.get("error")}
@@ -259,6 +268,38 @@ def run_scaling(args):
                     "seconds": median([r["seconds"] for r in ok]), "peak_mb": median([r["peak_mb"] for r in ok]),
                     "instances": ok[0]["instances"] if ok else None, "ribs": spec["ribs"],
                     "stages": ok[len(ok) // 2]["stages"] if ok else {}})
+    return out
+
+
+TRANSFERS = [("rib", "five_ribs"), ("rib", "six_features"), ("rib", "iso_scale"), ("boss", "bosses")]
+
+
+def run_transfers(args):
+    """`featureextract mesh` with the shipped feature folders: node placement and element quality."""
+    out = []
+    for feature, case in TRANSFERS:
+        odir = os.path.join(args.build, "suite_results", f"mesh_{feature}_{case}")
+        run = run_child([os.path.join(args.build, "featureextract"), "mesh", "-q", "--feature",
+                         os.path.join(ROOT, "Resources", "features", feature), "--target",
+                         os.path.join(args.models, "suite", case + ".step"), "--output", odir, "--seed", str(args.seed)],
+                        args.timeout)
+        row = {"feature": feature, "case": case, "seconds": run["seconds"], "error": run.get("error")}
+        if run["ok"]:
+            j = json.load(open(os.path.join(odir, "result.json")))
+            ts = [m["transfer"] for m in j["matches"] if "nodes" in m.get("transfer", {})]
+            row.update(instances=len(j["matches"]), nodes=j["feature"]["nodes"], elements=j["feature"]["elements"],
+                       unprojected=sum(t["unprojected_nodes"] for t in ts),
+                       max_surface=max((t["max_surface_distance"] for t in ts), default=None),
+                       max_move=max((t["max_projection_distance"] for t in ts), default=None),
+                       inverted=sum(t["quality_after"]["inverted"] for t in ts),
+                       sj_before=ts[0]["quality_before"]["min_scaled_jacobian"] if ts else None,
+                       sj_after=min((t["quality_after"]["min_scaled_jacobian"] for t in ts), default=None),
+                       ar_before=ts[0]["quality_before"]["median_aspect_ratio"] if ts else None,
+                       ar_after=median([t["quality_after"]["median_aspect_ratio"] for t in ts]),
+                       angle_before=ts[0]["quality_before"]["min_angle_deg"] if ts else None,
+                       angle_after=min((t["quality_after"]["min_angle_deg"] for t in ts), default=None))
+        log(f"mesh {feature} on {case}: {row.get('instances', 0)} instances, {row.get('inverted', '?')} inverted elements")
+        out.append(row)
     return out
 
 
@@ -299,7 +340,7 @@ def summary(rows, method, cases):
             "tp": tp, "fp": fp, "fn": fn, "fit": median(fits), "iou": median(ious), "seconds": sum(secs)}
 
 
-def markdown(cases, names, rows, scaling, args):
+def markdown(cases, names, rows, scaling, args, transfers=None):
     L = []
     L.append(f"Generated by `bench/run_suite.sh` on {time.strftime('%Y-%m-%d')} (seed {args.seed}; 2-core shared machine). "
              "Cases and ground truth come from `fe_make_models --suite`; scoring as described in `bench/suite.py`: "
@@ -337,6 +378,37 @@ def markdown(cases, names, rows, scaling, args):
               if (c["name"], n) in rows and rows[(c["name"], n)]["missed"]]
     if misses:
         L.append(f"Missed by {names[0]}: " + "; ".join(f"{c}: {', '.join(m)}" for c, _, m in misses) + ".\n")
+    if "ours" in names:
+        ba = [x for c in cases if (c["name"], "ours") in rows for x in rows[(c["name"], "ours")].get("before_after", [])]
+        if ba:
+            before = [b for b, _ in ba]
+            after = [a for _, a in ba]
+            worse = sum(1 for b, a in ba if a > b * (1 + 1e-9))
+            L.append("### Fit before and after the surface refinement (ours)\n")
+            L.append("The engine's own RMS distance of the mapped reference to the target surface, over the true instances found, "
+                     "divided by the reference diagonal times the instance's scale.\n")
+            L.append("| instances | median before | median after | worst after | instances worse after |")
+            L.append("|---|---|---|---|---|")
+            L.append(f"| {len(ba)} | {fmt(median(before), 2, True)} | {fmt(median(after), 2, True)} | "
+                     f"{fmt(max(after), 2, True)} | {worse} |")
+            L.append("")
+    if transfers:
+        L.append("### FE mesh transfer (`featureextract mesh`)\n")
+        L.append("The shipped feature folders (`Resources/features`) placed on every instance found. Distances in mm; "
+                 "SJ = scaled Jacobian (1 perfect, < 0 inverted), AR = aspect ratio, angle = smallest element angle.\n")
+        L.append("| feature | target | instances | nodes each | unprojected nodes | max node-surface distance | "
+                 "largest node move | inverted elements | min SJ before / after | median AR before / after | "
+                 "min angle before / after |")
+        L.append("|---|---|---|---|---|---|---|---|---|---|---|")
+        for t in transfers:
+            if t.get("error"):
+                L.append(f"| {t['feature']} | {t['case']} | **{t['error']}** |" + " |" * 8)
+                continue
+            L.append(f"| {t['feature']} | {t['case']} | {t['instances']} | {t['nodes']} | {t['unprojected']} | "
+                     f"{t['max_surface']:.1e} | {fmt(t['max_move'])} | {t['inverted']} | {fmt(t['sj_before'])} / "
+                     f"{fmt(t['sj_after'])} | {fmt(t['ar_before'])} / {fmt(t['ar_after'])} | "
+                     f"{fmt(t['angle_before'], 0)} / {fmt(t['angle_after'], 0)} |")
+        L.append("")
     if scaling:
         L.append("### Scaling with target size\n")
         L.append("![time and memory against target size](images/scaling.png)\n")
@@ -368,7 +440,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(ROOT, "build"), help="build folder (default build/)")
     ap.add_argument("--models", default=None, help="models folder (default BUILD/models)")
-    ap.add_argument("--methods", nargs="+", default=["ours", "pcl-gc", "open3d", "open3d-scaling"])
+    ap.add_argument("--methods", nargs="+", default=["ours", "ours-cylindrical", "pcl-gc", "open3d", "open3d-scaling"],
+                    help="ours = defaults; ours-cylindrical = the task panel's Cylindrical preset (ridge_rut_spacing 0.05)")
     ap.add_argument("--cases", nargs="*", help="only these cases (default all)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=3, help="runs per scaling size (median quoted)")
@@ -379,10 +452,11 @@ def main():
     args.models = args.models or os.path.join(args.build, "models")
     sys.path.insert(0, os.path.join(args.build, "python"))
     cases, names, rows = run_suite(args)
+    transfers = run_transfers(args) if "ours" in names else None
     scaling = None if args.no_scaling else run_scaling(args)
     if scaling:
         plot_scaling(scaling, os.path.join(ROOT, "docs", "images", "scaling.png"))
-    text = markdown(cases, names, rows, scaling, args)
+    text = markdown(cases, names, rows, scaling, args, transfers)
     json.dump({"rows": {f"{k[0]}|{k[1]}": v for k, v in rows.items()}, "scaling": scaling},
               open(os.path.join(args.build, "suite_results", "summary.json"), "w"), indent=1, default=str)
     print(text)

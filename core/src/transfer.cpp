@@ -110,8 +110,14 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       if (m.allFinite() && m.norm() > 0) mapped_n.row(i) = m.normalized();
     }
   }
+  out.mesh.nodes = mapped;  // nodes that find no foot point keep H's position
+  // Reach of the projection: relative to the reference mesh's size times the local scale of H (not
+  // the mapped box, which a bad transform can blow up).
+  const Eigen::Vector3d rc = 0.5 * (reference.nodes.colwise().minCoeff() + reference.nodes.colwise().maxCoeff()).transpose();
+  const double scale_h = std::cbrt(std::abs(jacobian_at(H, rc).determinant()));
+  const double reach = o.max_projection * (reference.nodes.colwise().maxCoeff() - reference.nodes.colwise().minCoeff()).norm() *
+                       (std::isfinite(scale_h) && scale_h > 0 ? scale_h : 1.0);
   const Eigen::Vector3d lo = mapped.colwise().minCoeff(), hi = mapped.colwise().maxCoeff();
-  const double reach = o.max_projection * (hi - lo).norm();
 
   // Target triangles near the mapped mesh.
   std::vector<Eigen::Index> region;

@@ -134,6 +134,20 @@ TEST(Transfer, RibMeshOnFiveRibsOfDifferentWidths) {
   }
 }
 
+TEST(Transfer, NodesFarFromTheSurfaceKeepTheMappedPosition) {
+  const FeatureRun r = run_feature("boss", "bosses.step");
+  ASSERT_FALSE(r.result.matches.empty());
+  Eigen::Matrix4d lift = Eigen::Matrix4d::Identity();
+  lift(2, 3) = 20.0;  // the whole mesh 20 mm above the boss: nothing to project onto
+  const Eigen::Matrix4d H = lift * r.result.matches[0].transform;
+  const fe::TransferredMesh t = fe::transfer_mesh(r.feature.mesh, H, r.tgt);
+  EXPECT_EQ(t.projected, 0u);
+  EXPECT_EQ(t.unprojected, static_cast<std::size_t>(r.feature.mesh.nodes.rows()));
+  for (Eigen::Index i = 0; i < t.mesh.nodes.rows(); ++i)
+    ASSERT_LT((t.mesh.nodes.row(i).transpose() - fe::apply_transform(H, r.feature.mesh.nodes.row(i).transpose())).norm(), 1e-9);
+  EXPECT_GT(t.max_surface_distance, 5.0);
+}
+
 TEST(Transfer, ClosestPointOnTriangle) {
   const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   EXPECT_TRUE(fe::closest_point_on_triangle({0.2, 0.2, 1}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.2, 0)));

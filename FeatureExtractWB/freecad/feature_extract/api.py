@@ -280,24 +280,28 @@ def quality_color(sj):
     return (0.2, 0.75, 0.25)
 
 
-def _fem_mesh(fe_mesh):
-    """A FreeCAD FemMesh from the core's FeMesh (ids kept, so the .inp and the document agree)."""
+def _fem_mesh(fe_mesh, node_offset=0):
+    """A FreeCAD FemMesh from the core's FeMesh. Node ids are kept; elements are numbered 1..n in the
+    mesh's order (FemGui draws meshes with gaps or interleaved element ids wrongly); ElementIds of the
+    FEM object map them back to the .inp ids."""
     import Fem
     m = Fem.FemMesh()
     nodes = fe_mesh.nodes
-    ids = list(fe_mesh.node_ids) or list(range(1, len(nodes) + 1))
+    ids = [node_offset + i for i in (list(fe_mesh.node_ids) or list(range(1, len(nodes) + 1)))]
     for nid, (x, y, z) in zip(ids, nodes):
         m.addNode(float(x), float(y), float(z), int(nid))
-    element_ids = []
+    original_ids = []
+    n = 0
     for kind, eids, conn, _ in fe_mesh.blocks:
         for eid, row in zip(eids, conn):
+            n += 1
             corners = [int(ids[k]) for k in row]
             if kind in ("S3", "S4"):
-                m.addFace(corners, int(eid))
+                m.addFace(corners, n)
             else:
-                m.addVolume(corners, int(eid))
-            element_ids.append(int(eid))
-    return m, element_ids
+                m.addVolume(corners, n)
+            original_ids.append(int(eid))
+    return m, original_ids
 
 
 def place_meshes(target_obj, feature_dir, progress=None, **params):
@@ -331,13 +335,14 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
             created.append(obj)
             FeatureMesh(obj)
             obj.Label = f"FE mesh {i + 1} ({os.path.basename(os.path.normpath(feature_dir))})"
-            femmesh, element_ids = _fem_mesh(t.mesh)
+            femmesh, element_ids = _fem_mesh(t.mesh, node_offset=1000000 * i)
             obj.FemMesh = femmesh
+            obj.InpElementIds = element_ids
             obj.Target = target_obj
             obj.Result = r
             obj.FeatureFolder = feature_dir
             obj.Specification = t.spec_json
-            obj.ElementIds = element_ids
+            obj.ElementIds = list(range(1, len(element_ids) + 1))
             sj = t.quality_after["scaled_jacobian"]
             obj.ScaledJacobian = [float(x) for x in sj]
             summary = t.summary_after

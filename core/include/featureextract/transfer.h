@@ -26,8 +26,8 @@ FeatureModel read_feature(const std::string& dir);
 
 struct TransferOptions {
   /// A mapped node is moved onto the target surface if a foot point lies within this distance, as a
-  /// fraction of the mapped mesh's bounding-box diagonal; farther nodes keep the mapped position
-  /// (and are counted as unprojected).
+  /// fraction of the reference mesh's bounding-box diagonal times the local scale of H; farther nodes
+  /// keep the mapped position (and are counted as unprojected).
   double max_projection = 0.03;
   /// A foot point must lie on a target triangle whose normal is within acos(normal_agreement) of the
   /// node's mapped normal (so a node on a rib's flank does not jump to the opposite flank or the
