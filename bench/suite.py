@@ -212,6 +212,10 @@ def run_suite(args):
     out_dir = os.path.join(args.build, "suite_results")
     os.makedirs(out_dir, exist_ok=True)
     rows = {}
+    kept = {}
+    if args.keep:  # rows of methods not run again, from the previous run's summary
+        prev = json.load(open(os.path.join(out_dir, "summary.json")))["rows"]
+        kept = {tuple(k.split("|")): v for k, v in prev.items() if k.split("|")[1] in args.keep}
     ref_cache = {}
     for case in cases:
         ref = {"step": os.path.join(suite_dir, case["reference"] + ".step"), "stl": os.path.join(suite_dir, case["reference"] + ".stl")}
@@ -225,6 +229,9 @@ def run_suite(args):
             ref_cache[ref["stl"] + "#diag"] = float(np.linalg.norm(v.max(0) - v.min(0)))
         target = Target(tgt["step"])
         for name, cmd in ms.items():
+            if (case["name"], name) in kept:
+                rows[(case["name"], name)] = kept[(case["name"], name)]
+                continue
             out = os.path.join(out_dir, f"{case['name']}.{name}.json")
             if os.path.exists(out):
                 os.remove(out)
@@ -444,6 +451,8 @@ def main():
                     help="ours = defaults; ours-cylindrical = the task panel's Cylindrical preset (ridge_rut_spacing 0.05)")
     ap.add_argument("--cases", nargs="*", help="only these cases (default all)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--keep", nargs="*", default=[], help="methods whose rows are taken from the previous run "
+                    "(build/suite_results/summary.json) instead of running them again")
     ap.add_argument("--repeats", type=int, default=3, help="runs per scaling size (median quoted)")
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per run")

@@ -723,8 +723,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         if (rms_on_surface(H) > rms_unrefined) H = H_unrefined;
         if (sym.axisymmetric) {  // the symmetric model fit, kept if it fits better
           bounds_ok(H, &s);
+          // preferred unless clearly worse: a general projective map can lower the RMS a little by
+          // skewing a boss, which the symmetric model (3 parameters on the target's own axis) cannot
           const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
-          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr) && rms_on_surface(Ha) < rms_on_surface(H)) H = Ha;
+          const double rh = rms_on_surface(H);
+          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr) && rms_on_surface(Ha) <= std::max(1.25 * rh, rh + 0.002 * L * s)) H = Ha;
         }
         if (sym.axisymmetric) {  // the free spin about the axis: the least twisted one
           const Eigen::Matrix4d Hu = untwist(H, sym);

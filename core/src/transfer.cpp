@@ -140,8 +140,9 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
   }
   auto corner = [&](std::size_t r, int k) -> Eigen::Vector3d { return target.vertices.row(target.triangles(region[r], k)); };
 
-  for (Eigen::Index i = 0; i < N; ++i) {
-    const Eigen::Vector3d y = mapped.row(i), m = mapped_n.row(i);
+  // Foot point of y on the target: the closest point within reach on a triangle whose normal agrees
+  // with m (else on any triangle); false if none is within reach.
+  auto foot = [&](const Eigen::Vector3d& y, const Eigen::Vector3d& m, Eigen::Vector3d& out_q) {
     double best_agree = INFINITY, best_any = INFINITY;
     Eigen::Vector3d q_agree = y, q_any = y;
     for (std::size_t r = 0; r < region.size(); ++r) {
@@ -151,25 +152,18 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       if (d < best_any) { best_any = d; q_any = q; }
       if (d < best_agree && (m.isZero() || tn[r].dot(m) >= o.normal_agreement)) { best_agree = d; q_agree = q; }
     }
-    if (std::isfinite(best_agree) || std::isfinite(best_any)) {
-      const Eigen::Vector3d q = std::isfinite(best_agree) ? q_agree : q_any;
-      out.max_projection_distance = std::max(out.max_projection_distance, (q - y).norm());
-      out.mesh.nodes.row(i) = q;
-      ++out.projected;
-    } else {
-      ++out.unprojected;
+    if (!std::isfinite(best_agree) && !std::isfinite(best_any)) return false;
+    out_q = std::isfinite(best_agree) ? q_agree : q_any;
+    return true;
+  };
+  std::vector<char> on_surface(static_cast<std::size_t>(N), 0);
+  for (Eigen::Index i = 0; i < N; ++i) {
+    Eigen::Vector3d q;
+    if (foot(mapped.row(i).transpose(), mapped_n.row(i).transpose(), q)) {
+      out.mesh.nodes.row(i) = q.transpose();
+      on_surface[static_cast<std::size_t>(i)] = 1;
     }
   }
-  // How far the final nodes are from the target triangles (0 for the projected ones, up to the
-  // triangulation's rounding; the unprojected ones tell how far the feature is off the surface).
-  for (Eigen::Index i = 0; i < N; ++i) {
-    const Eigen::Vector3d y = out.mesh.nodes.row(i);
-    double best = INFINITY;
-    for (std::size_t r = 0; r < region.size(); ++r)
-      best = std::min(best, (closest_point_on_triangle(y, corner(r, 0), corner(r, 1), corner(r, 2)) - y).norm());
-    out.max_surface_distance = std::max(out.max_surface_distance, best);
-  }
-
   // Quality before and after; shells judged against their own normals mapped by H.
   out.before = element_quality(reference);
   const Points n0 = element_normals(reference);
@@ -185,6 +179,60 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       if (m.allFinite() && m.norm() > 0) n1.row(e) = m.normalized();
     }
   out.after = element_quality(out.mesh, &n1);
+  // Untangling: closest-point projection can fold a small element where the target's shape differs
+  // from the mapped reference (a fillet of another radius). The nodes of such elements are moved to
+  // the mean of their neighbours and projected again, a few rounds; elements valid before only.
+  {
+    std::vector<std::vector<int>> nbr(static_cast<std::size_t>(N));
+    std::vector<std::vector<int>> elem_nodes;
+    for (const ElementBlock& b : reference.blocks)
+      for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
+        std::vector<int> en(b.conn.row(r).data(), b.conn.row(r).data() + b.conn.cols());
+        for (int u : en)
+          for (int v : en)
+            if (u != v) nbr[static_cast<std::size_t>(u)].push_back(v);
+        elem_nodes.push_back(std::move(en));
+      }
+    for (int round = 0; round < 8; ++round) {
+      std::vector<int> bad_nodes;
+      for (std::size_t e2 = 0; e2 < out.after.size(); ++e2)
+        if (out.after[e2].inverted && !out.before[e2].inverted)
+          bad_nodes.insert(bad_nodes.end(), elem_nodes[e2].begin(), elem_nodes[e2].end());
+      if (bad_nodes.empty()) break;
+      std::sort(bad_nodes.begin(), bad_nodes.end());
+      bad_nodes.erase(std::unique(bad_nodes.begin(), bad_nodes.end()), bad_nodes.end());
+      for (int i : bad_nodes) {
+        Eigen::Vector3d c = Eigen::Vector3d::Zero();
+        for (int v : nbr[static_cast<std::size_t>(i)]) c += out.mesh.nodes.row(v).transpose();
+        if (nbr[static_cast<std::size_t>(i)].empty()) continue;
+        c /= static_cast<double>(nbr[static_cast<std::size_t>(i)].size());
+        Eigen::Vector3d q;
+        if (foot(c, mapped_n.row(i).transpose(), q)) {
+          out.mesh.nodes.row(i) = q.transpose();
+          on_surface[static_cast<std::size_t>(i)] = 1;
+        }
+      }
+      out.after = element_quality(out.mesh, &n1);
+    }
+  }
+  for (Eigen::Index i = 0; i < N; ++i) {
+    if (on_surface[static_cast<std::size_t>(i)]) {
+      ++out.projected;
+      out.max_projection_distance = std::max(out.max_projection_distance, (out.mesh.nodes.row(i) - mapped.row(i)).norm());
+    } else {
+      ++out.unprojected;
+    }
+  }
+  // How far the final nodes are from the target triangles (0 for the projected ones, up to the
+  // triangulation's rounding; the unprojected ones tell how far the feature is off the surface).
+  for (Eigen::Index i = 0; i < N; ++i) {
+    const Eigen::Vector3d y = out.mesh.nodes.row(i);
+    double best = INFINITY;
+    for (std::size_t r = 0; r < region.size(); ++r)
+      best = std::min(best, (closest_point_on_triangle(y, corner(r, 0), corner(r, 1), corner(r, 2)) - y).norm());
+    out.max_surface_distance = std::max(out.max_surface_distance, best);
+  }
+
   out.before_summary = summarize(out.before);
   out.after_summary = summarize(out.after);
   std::vector<int> invalid;

@@ -280,14 +280,13 @@ def quality_color(sj):
     return (0.2, 0.75, 0.25)
 
 
-def _fem_mesh(fe_mesh, node_offset=0):
+def _fem_mesh(fe_mesh):
     """A FreeCAD FemMesh from the core's FeMesh. Node ids are kept; elements are numbered 1..n in the
-    mesh's order (FemGui draws meshes with gaps or interleaved element ids wrongly); ElementIds of the
-    FEM object map them back to the .inp ids."""
+    mesh's order (InpElementIds of the FEM object keeps the .inp ids)."""
     import Fem
     m = Fem.FemMesh()
     nodes = fe_mesh.nodes
-    ids = [node_offset + i for i in (list(fe_mesh.node_ids) or list(range(1, len(nodes) + 1)))]
+    ids = list(fe_mesh.node_ids) or list(range(1, len(nodes) + 1))
     for nid, (x, y, z) in zip(ids, nodes):
         m.addNode(float(x), float(y), float(z), int(nid))
     original_ids = []
@@ -335,7 +334,7 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
             created.append(obj)
             FeatureMesh(obj)
             obj.Label = f"FE mesh {i + 1} ({os.path.basename(os.path.normpath(feature_dir))})"
-            femmesh, element_ids = _fem_mesh(t.mesh, node_offset=1000000 * i)
+            femmesh, element_ids = _fem_mesh(t.mesh)
             obj.FemMesh = femmesh
             obj.InpElementIds = element_ids
             obj.Target = target_obj

@@ -45,7 +45,7 @@ struct Params {
   // --- step 6: RANSAC projective transform
   int ransac_max_iterations = 4000;  ///< upper bound of iterations per instance search
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
-  int refine_iterations = 10;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
+  int refine_iterations = 30;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
   double error_quantile = 0.9;        ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
   double accept_error = 0.05;        ///< accept if that error <= this x L x scale
