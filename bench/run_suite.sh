@@ -6,15 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${FE_BUILD_DIR:-build}
-PACKAGES=(python3-open3d python3-scipy python3-matplotlib time)
-missing=()
-for p in "${PACKAGES[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "run_suite: installing ${missing[*]}"
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO=sudo
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+tools/install_packages.sh python3-open3d python3-scipy python3-matplotlib time
 [ -f "$BUILD/CMakeCache.txt" ] || ./setup.sh
 cmake --build "$BUILD" -j2 >/dev/null
 REAL="$(pwd)/../shared/data/real"   # the real parts beside the checkout (not copied into the repo)

@@ -575,10 +575,8 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
   std::ofstream(dir + "/suite.json") << Json{{"units", "mm"}, {"cases", cases}}.dump(1) << "\n";
 }
 
-// Plates of ribs and bosses tessellated to about n triangles (read as STL): the scaling benchmark.
-void write_scaling(const std::string& root) {
-  const std::string dir = root + "/scaling";
-  std::filesystem::create_directories(dir);
+// The benchmark plate: 12 ribs scaled 1.0-1.3 and 3 bosses on 210 x 220 mm.
+TopoDS_Shape bench_plate(std::size_t* n_ribs) {
   std::vector<Rib> ribs;
   std::vector<Boss> bosses;
   for (int i = 0; i < 4; ++i)
@@ -588,7 +586,16 @@ void write_scaling(const std::string& root) {
       ribs.push_back(r);
     }
   for (int j = 0; j < 3; ++j) bosses.push_back({185, 40.0 + 70.0 * j});
-  const TopoDS_Shape big = part(210, 220, ribs, bosses);
+  *n_ribs = ribs.size();
+  return part(210, 220, ribs, bosses);
+}
+
+// That plate tessellated to about 10k, 100k, 300k and 1M triangles (read as STL): the scaling benchmark.
+void write_scaling(const std::string& root) {
+  const std::string dir = root + "/scaling";
+  std::filesystem::create_directories(dir);
+  std::size_t n_ribs = 0;
+  const TopoDS_Shape big = bench_plate(&n_ribs);
   Json sizes = Json::array();
   for (const auto& [name, defl, angle] : std::vector<std::tuple<std::string, double, double>>{
            {"10k", 0.12, 0.35}, {"100k", 0.004, 0.2}, {"300k", 0.0014, 0.2}, {"1m", 0.0004, 0.2}}) {
@@ -599,7 +606,7 @@ void write_scaling(const std::string& root) {
                      {"angular_deflection", angle}});
     std::cout << "fe_make_models: scaling/plate_" << name << ".stl: " << m.triangles.rows() << " triangles\n" << std::flush;
   }
-  std::ofstream(dir + "/scaling.json") << Json{{"ribs", ribs.size()}, {"sizes", sizes}}.dump(1) << "\n";
+  std::ofstream(dir + "/scaling.json") << Json{{"ribs", n_ribs}, {"sizes", sizes}}.dump(1) << "\n";
 }
 }  // namespace
 
@@ -691,19 +698,11 @@ int main(int argc, char** argv) {
   write_step(BRepBuilderAPI_MakeFace(gp_Pln(gp::Origin(), gp::DZ()), 0, 30, 0, 20).Shape(), dir + "/flat_reference.step");
   write_step(part(120, 80, {}, {{30, 40}, {90, 40, 8, 10}}), dir + "/boss_only.step");
   if (bench) {
-    std::vector<Rib> ribs;
-    std::vector<Boss> bosses;
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 3; ++j) {
-        Rib r{25.0 + 40.0 * i, 40.0 + 70.0 * j};
-        r.scale = 1.0 + 0.1 * ((i + j) % 4);
-        ribs.push_back(r);
-      }
-    for (int j = 0; j < 3; ++j) bosses.push_back({185, 40.0 + 70.0 * j});
-    const TopoDS_Shape big = part(210, 220, ribs, bosses);
+    std::size_t n_ribs = 0;
+    const TopoDS_Shape big = bench_plate(&n_ribs);
     const fe::TriangleMesh m = tessellate(big, 0.004);
     fe::write_stl(m, dir + "/bench_100k.stl", true);
-    truth << "  \"bench_100k.stl\": {\"ribs\": " << ribs.size() << ", \"triangles\": " << m.triangles.rows() << "},\n";
+    truth << "  \"bench_100k.stl\": {\"ribs\": " << n_ribs << ", \"triangles\": " << m.triangles.rows() << "},\n";
   }
   if (suite) write_suite(dir, b, ribs_b, real_dir);
   if (scaling) write_scaling(dir);

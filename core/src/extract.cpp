@@ -318,13 +318,7 @@ Symmetry detect_axisymmetry(const Points& x, const Points& n, double L) {
   return sym;
 }
 
-Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
-  const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
-  const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
-  const double w = g.dot(p) + H(3, 3);
-  const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
-  return (A - f * g.transpose()) / w;
-}
+Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) { return transform_jacobian(H, p); }
 
 // For an axisymmetric reference the rotation about its axis is free: choose the one that makes the
 // linear part of H twist least (maximal trace of A R), so that instances come out without an

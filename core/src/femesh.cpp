@@ -4,6 +4,8 @@
 
 #include "featureextract/io.h"
 
+#include "file_text.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -57,15 +59,7 @@ using Vec3 = Eigen::Vector3d;
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) { throw InputError(path + ": " + what); }
 
-std::string read_all(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open file (missing or unreadable)");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  std::string data = ss.str();
-  if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail(path, "file is empty");
-  return data;
-}
+std::string read_all(const std::string& path) { return read_file_text(path); }
 
 std::string_view trim(std::string_view s) {
   const auto b = s.find_first_not_of(" \t\r\n");

@@ -1,6 +1,8 @@
 // Triangle-mesh input (STL ascii/binary, OBJ, PLY) and validation. B-rep input is in brep_io.cpp.
 #include "featureextract/io.h"
 
+#include "file_text.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -31,15 +33,7 @@ namespace {
   throw InputError(path + ": " + what);
 }
 
-std::string read_all(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open file (missing or unreadable)");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  std::string data = ss.str();
-  if (data.empty()) fail(path, "file is empty");
-  return data;
-}
+std::string read_all(const std::string& path) { return read_file_text(path); }
 
 struct Builder {
   std::vector<double> v;

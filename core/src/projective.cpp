@@ -59,6 +59,14 @@ Eigen::Vector3d apply_transform(const Eigen::Matrix4d& H, const Eigen::Vector3d&
   return q.head<3>() / q(3);
 }
 
+Eigen::Matrix3d transform_jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
+  const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
+  const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
+  const double w = g.dot(p) + H(3, 3);
+  const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
+  return (A - f * g.transpose()) / w;
+}
+
 bool solve_projective_5(const Eigen::Matrix<double, 5, 3>& ref, const Eigen::Matrix<double, 5, 3>& tgt, Eigen::Matrix4d& H) {
   const Points r = ref, t = tgt;
   const Eigen::Matrix4d Tr = normalizer(r), Tt = normalizer(t);

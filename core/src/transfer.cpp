@@ -18,13 +18,6 @@ namespace {
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) { throw InputError(where + ": " + what); }
 
-Eigen::Matrix3d jacobian_at(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) {
-  const Eigen::Matrix3d A = H.topLeftCorner<3, 3>();
-  const Eigen::Vector3d g = H.block<1, 3>(3, 0).transpose();
-  const double w = g.dot(p) + H(3, 3);
-  const Eigen::Vector3d f = (A * p + H.topRightCorner<3, 1>()) / w;
-  return (A - f * g.transpose()) / w;
-}
 
 }  // namespace
 
@@ -106,7 +99,7 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
     mapped.row(i) = y;
     const Eigen::Vector3d n = node_n.row(i);
     if (n.norm() > 0) {
-      const Eigen::Vector3d m = jacobian_at(H, x).inverse().transpose() * n;
+      const Eigen::Vector3d m = transform_jacobian(H, x).inverse().transpose() * n;
       if (m.allFinite() && m.norm() > 0) mapped_n.row(i) = m.normalized();
     }
   }
@@ -114,7 +107,7 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
   // Reach of the projection: relative to the reference mesh's size times the local scale of H (not
   // the mapped box, which a bad transform can blow up).
   const Eigen::Vector3d rc = 0.5 * (reference.nodes.colwise().minCoeff() + reference.nodes.colwise().maxCoeff()).transpose();
-  const double scale_h = std::cbrt(std::abs(jacobian_at(H, rc).determinant()));
+  const double scale_h = std::cbrt(std::abs(transform_jacobian(H, rc).determinant()));
   const double reach = o.max_projection * (reference.nodes.colwise().maxCoeff() - reference.nodes.colwise().minCoeff()).norm() *
                        (std::isfinite(scale_h) && scale_h > 0 ? scale_h : 1.0);
   const Eigen::Vector3d lo = mapped.colwise().minCoeff(), hi = mapped.colwise().maxCoeff();
@@ -175,7 +168,7 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       for (Eigen::Index k = 0; k < b.conn.cols(); ++k) c += reference.nodes.row(b.conn(r, k)).transpose();
       c /= static_cast<double>(b.conn.cols());
-      const Eigen::Vector3d m = jacobian_at(H, c).inverse().transpose() * n0.row(e).transpose();
+      const Eigen::Vector3d m = transform_jacobian(H, c).inverse().transpose() * n0.row(e).transpose();
       if (m.allFinite() && m.norm() > 0) n1.row(e) = m.normalized();
     }
   out.after = element_quality(out.mesh, &n1);
@@ -259,7 +252,7 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       const auto d = spec["axis"]["direction"].get<std::vector<double>>();
       if (p.size() == 3 && d.size() == 3) {
         const Eigen::Vector3d P(p[0], p[1], p[2]), D(d[0], d[1], d[2]);
-        const Eigen::Vector3d P1 = apply_transform(H, P), D1 = (jacobian_at(H, P) * D).normalized();
+        const Eigen::Vector3d P1 = apply_transform(H, P), D1 = (transform_jacobian(H, P) * D).normalized();
         spec["axis"]["point"] = {P1.x(), P1.y(), P1.z()};
         spec["axis"]["direction"] = {D1.x(), D1.y(), D1.z()};
       }

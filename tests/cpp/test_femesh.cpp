@@ -2,6 +2,8 @@
 // and element quality (aspect ratio, scaled Jacobian, angles, inversion against reference normals).
 #include "featureextract/femesh.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -16,17 +18,8 @@ std::string tmp(const std::string& name) { return ::testing::TempDir() + "fe_fem
 
 void write(const std::string& path, const std::string& data) { std::ofstream(path, std::ios::binary) << data; }
 
-// Expects InputError whose message starts with the path, is one line and contains `fragment`.
 void expect_input_error(const std::string& path, const std::string& fragment) {
-  try {
-    fe::read_fe_mesh(path);
-    FAIL() << "no error for " << path;
-  } catch (const fe::InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
-    EXPECT_NE(msg.find(fragment), std::string::npos) << msg;
-  }
+  fe_test::expect_one_line_error(path, fragment, [](const std::string& p) { return fe::read_fe_mesh(p); });
 }
 
 // Comments, mixed case, unknown keywords, ids with gaps, a continued element record, GENERATE,

@@ -2,6 +2,8 @@
 #include "featureextract/io.h"
 #include "featureextract/params.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -25,17 +27,8 @@ fe::TriangleMesh square() {
   return m;
 }
 
-// Expects InputError whose message starts with the path and is one line.
 void expect_input_error(const std::string& path, const std::string& fragment) {
-  try {
-    fe::read_shape(path);
-    FAIL() << "no error for " << path;
-  } catch (const fe::InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
-    EXPECT_NE(msg.find(fragment), std::string::npos) << msg;
-  }
+  fe_test::expect_one_line_error(path, fragment, [](const std::string& p) { return fe::read_shape(p); });
 }
 
 }  // namespace

@@ -45,6 +45,9 @@ bool is_key_shape_index(double si, double band);
 /// Applies H to a point (homogeneous divide). Returns NaN if w is ~0.
 Eigen::Vector3d apply_transform(const Eigen::Matrix4d& H, const Eigen::Vector3d& p);
 
+/// The 3 x 3 Jacobian of x -> apply_transform(H, x) at p (normals map by its inverse transpose).
+Eigen::Matrix3d transform_jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p);
+
 /// Solves eqs. (3.2)-(3.3) for the 15 unknowns from exactly 5 pairs (rows of ref -> tgt) by LU.
 /// Points are normalized (mean 0, std 1) first and H de-normalized after (eq. 3.4).
 /// Returns false if the system is singular (e.g. 4 coplanar points).
