@@ -386,6 +386,20 @@ def markdown(cases, names, rows, scaling, args, transfers=None):
     if misses:
         L.append(f"Missed by {names[0]}: " + "; ".join(f"{c}: {', '.join(m)}" for c, _, m in misses) + ".\n")
     if "ours" in names:
+        stages = {}
+        for c in cases:
+            for k, v in rows.get((c["name"], "ours"), {}).get("timings", {}).items():
+                if k != "total" and v is not None:
+                    stages[k] = stages.get(k, 0.0) + v
+        if stages:
+            total = sum(stages.values())
+            L.append("### Time per stage (ours, summed over the suite)\n")
+            L.append("| stage | s | share |")
+            L.append("|---|---|---|")
+            for k, v in stages.items():
+                L.append(f"| {k} | {v:.2f} | {100 * v / total:.0f} % |")
+            L.append(f"| all stages (reading and tessellation not included) | {total:.2f} | |")
+            L.append("")
         ba = [x for c in cases if (c["name"], "ours") in rows for x in rows[(c["name"], "ours")].get("before_after", [])]
         if ba:
             before = [b for b, _ in ba]
