@@ -897,6 +897,26 @@ void check_sizes(const TriangleMesh& reference, const TriangleMesh& target, cons
   }
 }
 
+// The paper's key points miss features made of cylinders and flats (a lug: its hole and outer arc
+// are ruts and ridges). When they find nothing, the search is repeated once with ridge and rut key
+// points (ridge_rut_fallback); the result says so, and its parameters are the ones that found it.
+template <class Run>
+Result with_fallback(const Params& params, Run run) {
+  Result res = run(params);
+  if (!res.matches.empty() || !(params.ridge_rut_fallback > 0) || params.ridge_rut_spacing > 0) return res;
+  double first = 0;
+  for (const auto& t : res.timings) first += t.second;
+  Params again = params;
+  again.ridge_rut_spacing = params.ridge_rut_fallback;
+  Result second = run(again);
+  std::ostringstream w;
+  w << "nothing found with the paper's key points; searched again with ridge and rut key points (ridge_rut_spacing "
+    << again.ridge_rut_spacing << "): " << second.matches.size() << " instance(s)";
+  second.warnings.insert(second.warnings.begin(), w.str());
+  second.timings.insert(second.timings.begin(), {"first_pass", first});
+  return second;
+}
+
 // The parameters that change a shape's description (steps 1-3), with the feature size.
 std::string description_key(double L, const Params& p) {
   std::ostringstream k;
@@ -910,34 +930,38 @@ std::string description_key(double L, const Params& p) {
 
 PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
 
-Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params, const ProgressFn& progress) {
-  params.validate();
-  check_sizes(reference, mesh_, params);
-  const double L = reference.diagonal();
-  const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
-  const std::string key = description_key(L, params);
-  std::shared_ptr<const ShapeDescription> t;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
-    for (const auto& c : cache_)
-      if (c.first == key) t = c.second;
-    if (!t) {
-      t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
-      cache_.emplace_back(key, t);
-      ++built_;
-      if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
+Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params_in, const ProgressFn& progress) {
+  params_in.validate();
+  check_sizes(reference, mesh_, params_in);
+  return with_fallback(params_in, [&](const Params& params) {
+    const double L = reference.diagonal();
+    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+    const std::string key = description_key(L, params);
+    std::shared_ptr<const ShapeDescription> t;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
+      for (const auto& c : cache_)
+        if (c.first == key) t = c.second;
+      if (!t) {
+        t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
+        cache_.emplace_back(key, t);
+        ++built_;
+        if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
+      }
     }
-  }
-  return match(r, *t, mesh_, params, progress);
+    return match(r, *t, mesh_, params, progress);
+  });
 }
 
-Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params, const ProgressFn& progress) {
-  params.validate();
-  check_sizes(reference, target, params);
-  const double L = reference.diagonal();
-  const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
-  const ShapeDescription t = describe(target, ShapeDescription::Role::Target, L, params, progress);
-  return match(r, t, target, params, progress);
+Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
+  params_in.validate();
+  check_sizes(reference, target, params_in);
+  return with_fallback(params_in, [&](const Params& params) {
+    const double L = reference.diagonal();
+    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+    const ShapeDescription t = describe(target, ShapeDescription::Role::Target, L, params, progress);
+    return match(r, t, target, params, progress);
+  });
 }
 
 }  // namespace fe

@@ -40,6 +40,7 @@ const std::vector<Entry>& entries() {
       {"scale_max", &Params::scale_max, "", "largest target/reference scale searched by SHOT radius shifts", 1, 10},
       {"si_band", &Params::si_band, "", "half-width of the rut (0.25) and ridge (0.75) shape-index bands that are not key points", 0, 0.25},
       {"ridge_rut_spacing", &Params::ridge_rut_spacing, "x L", "if > 0, ridge and rut points (cylinders: holes, lugs, bosses) are key points too, thinned to one per cube of this size; 0 = the paper's rule", 0, 1},
+      {"ridge_rut_fallback", &Params::ridge_rut_fallback, "x L", "if no instance is found with the key points above (and ridge_rut_spacing is 0), search again with ridge and rut key points thinned to this spacing (features made of cylinders and flats, e.g. lugs); 0 = never", 0, 1},
       {"shot_neighbours", &Params::shot_neighbours, "count", "N: nearest reference key points in SHOT space per target key point", 1, 100},
       {"si_neighbours", &Params::si_neighbours, "count", "M: nearest reference key points in shape index per target key point", 1, 1000},
       {"pair_distance", &Params::pair_distance, "x L", "delta: a SHOT pair is kept if an SI pair lies this close at both ends", 0, 10},

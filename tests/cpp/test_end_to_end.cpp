@@ -160,6 +160,23 @@ TEST(EndToEnd, RidgeAndRutKeyPointsAreOptInAndStillFindTheRibs) {
   for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss " << b;
 }
 
+TEST(EndToEnd, RealPartEarsFoundByTheRidgeRutFallback) {
+  // NIST FTC-10: the paper's key points find none of the corner ears (cylinders and flats); the
+  // fallback searches again with ridge and rut key points, says so, and finds ears.
+  const fe::TriangleMesh ref = fe::read_shape(models() + "/suite/ftc10_ear_reference.step");
+  const fe::TriangleMesh tgt = fe::read_shape(models() + "/suite/ftc10.step", fe::tessellation_for_feature(ref.diagonal()));
+  fe::Params p;
+  p.ridge_rut_fallback = 0;
+  EXPECT_TRUE(fe::extract(ref, tgt, p).matches.empty()) << "the paper's key points alone (if this finds ears, the fallback is moot)";
+  const fe::Result r = fe::extract(ref, tgt);
+  ASSERT_GE(r.matches.size(), 1u);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings[0].find("searched again with ridge and rut key points"), std::string::npos);
+  EXPECT_DOUBLE_EQ(r.params.ridge_rut_spacing, 0.05);
+  for (const fe::Match& m : r.matches)  // each found region is an ear: |x| > 60 and |z| > 18
+    EXPECT_TRUE(std::abs(m.center.x()) > 58 && std::abs(m.center.z()) > 16) << m.center.transpose();
+}
+
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
   const fe::Result r = run("rib_reference.step", "boss_only.step");
   EXPECT_TRUE(r.matches.empty());

@@ -32,6 +32,7 @@ struct Params {
   // --- step 3: key points (shape index bands)
   double si_band = 0.07;  ///< half-width of the rut (0.25) and ridge (0.75) bands that are not key points
   double ridge_rut_spacing = 0.0;  ///< (x L) if > 0, ridge and rut points are key points too, one per cube of this size
+  double ridge_rut_fallback = 0.05;  ///< (x L) if nothing is found, search again with ridge_rut_spacing this; 0 = never
 
   // --- step 4: pairs
   int shot_neighbours = 6;      ///< N: nearest reference key points in SHOT space per target key point
