@@ -572,6 +572,26 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
     add("ftc10", "real part NIST FTC-10 (214 faces): its 4 corner ears, reference cut from one of them", "ftc10_ear_reference",
         "ftc10", truth, "real");
   }
+  // a second real part: NIST FTC-06, four identical cylindrical bosses (radius 22.2 mm, with
+  // counterbored holes), one of them as the reference
+  if (!real_dir.empty()) {
+    const std::string path = real_dir + "/nist_ftc_06_asme1_rd.stp";
+    STEPControl_Reader r;
+    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
+    const TopoDS_Shape s = r.OneShape();
+    Json truth = Json::array();
+    std::vector<int> ref_faces;
+    for (const double x : {-108.6, -36.2, 36.2, 108.6}) {
+      const Box box{x - 24, 50.8 - 24, -248, x + 24, 50.8 + 24, -209};
+      const std::vector<int> f = faces_in_box(s, box);
+      if (ref_faces.empty()) ref_faces = f;
+      truth.push_back(instance(s, f, box, "boss at x " + std::to_string(static_cast<int>(std::lround(x)))));
+    }
+    save("ftc06_boss_reference", faces_compound(s, ref_faces));
+    save("ftc06", s);
+    add("ftc06", "real part NIST FTC-06 (144 faces): its 4 bosses with counterbored holes, reference cut from one of them",
+        "ftc06_boss_reference", "ftc06", truth, "real");
+  }
   std::ofstream(dir + "/suite.json") << Json{{"units", "mm"}, {"cases", cases}}.dump(1) << "\n";
 }
 

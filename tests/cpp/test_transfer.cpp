@@ -103,6 +103,22 @@ TEST(Symmetry, FiveBossesOfDifferentSizesWithoutADummyShape) {
   }
 }
 
+TEST(Symmetry, RealPartBossesAreAxisymmetricAndFound) {
+  // NIST FTC-06: four identical bosses (radius 22.2 mm, counterbored holes), one as the reference.
+  const fe::TriangleMesh ref = fe::read_shape(models() + "/suite/ftc06_boss_reference.step");
+  const fe::TriangleMesh tgt = fe::read_shape(models() + "/suite/ftc06.step", fe::tessellation_for_feature(ref.diagonal()));
+  const fe::Result r = fe::extract(ref, tgt);
+  EXPECT_EQ(r.symmetry, "axisymmetric");
+  EXPECT_GT(std::abs(r.symmetry_axis.z()), 0.999);
+  EXPECT_GE(r.matches.size(), 3u);
+  for (const fe::Match& m : r.matches) {
+    bool on_a_boss = false;
+    for (double x : {-108.6, -36.2, 36.2, 108.6}) on_a_boss = on_a_boss || std::abs(m.center.x() - x) < 2;
+    EXPECT_TRUE(on_a_boss) << m.center.transpose();
+    EXPECT_LT(m.rms_error, 0.005 * ref.diagonal());
+  }
+}
+
 TEST(Transfer, BossMeshLiesOnEveryBossWithoutInvertedElements) {
   const FeatureRun r = run_feature("boss", "bosses.step");
   ASSERT_EQ(r.result.matches.size(), 5u);
