@@ -469,6 +469,7 @@ def main():
                     "(build/suite_results/summary.json) instead of running them again")
     ap.add_argument("--repeats", type=int, default=3, help="runs per scaling size (median quoted)")
     ap.add_argument("--no-scaling", action="store_true")
+    ap.add_argument("--keep-scaling", action="store_true", help="take the scaling rows from the previous run")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per run")
     ap.add_argument("--doc", default=os.path.join(ROOT, "docs", "benchmarks.md"), help="document to update ('' = none)")
     args = ap.parse_args()
@@ -476,8 +477,11 @@ def main():
     sys.path.insert(0, os.path.join(args.build, "python"))
     cases, names, rows = run_suite(args)
     transfers = run_transfers(args) if "ours" in names else None
-    scaling = None if args.no_scaling else run_scaling(args)
-    if scaling:
+    if args.keep_scaling:
+        scaling = json.load(open(os.path.join(args.build, "suite_results", "summary.json")))["scaling"]
+    else:
+        scaling = None if args.no_scaling else run_scaling(args)
+    if scaling and not args.keep_scaling:
         plot_scaling(scaling, os.path.join(ROOT, "docs", "images", "scaling.png"))
     text = markdown(cases, names, rows, scaling, args, transfers)
     json.dump({"rows": {f"{k[0]}|{k[1]}": v for k, v in rows.items()}, "scaling": scaling},
