@@ -108,7 +108,6 @@ def apply(H, p):
 class Target:
     def __init__(self, path):
         import open3d as o3d
-        from scipy.spatial import cKDTree  # noqa: F401
         self.v, self.t, self.faces = load_mesh(path)
         self.area, self.centroid = tri_areas_centroids(self.v, self.t)
         mesh = o3d.t.geometry.TriangleMesh()

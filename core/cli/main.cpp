@@ -102,12 +102,10 @@ int main(int argc, char** argv) {
   me->add_option("--output,-o", out_path, "output folder (created)")->required();
   me->add_option("--max-projection", max_projection, "largest move of a mapped node onto the target, fraction of the "
                                                      "instance's diagonal (default 0.03)");
-  CLI::Option* seed_opt = nullptr;
   for (CLI::App* sub : {ex, me}) {
     sub->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
     sub->add_option("--config,-c", config_path, "JSON object of parameters (see below)");
-    auto* so = sub->add_option("--seed", seed, "seed of sampling and RANSAC (default 1)");
-    if (sub == ex) seed_opt = so;
+    sub->add_option("--seed", seed, "seed of sampling and RANSAC (default 1)");
     sub->add_option("--threads", threads, "worker threads (default 0 = all cores)");
     sub->add_option("--set", sets, "override one parameter, NAME=VALUE (repeatable)");
     sub->add_flag("--quiet,-q", quiet, "no progress on stderr");
@@ -142,7 +140,7 @@ int main(int argc, char** argv) {
       if (eq == std::string::npos) throw std::invalid_argument("--set expects NAME=VALUE, got '" + kv + "'");
       params = fe::params_from_json("{\"" + kv.substr(0, eq) + "\": " + kv.substr(eq + 1) + "}", params);
     }
-    if (*seed_opt || me->get_option("--seed")->count() > 0) params.seed = seed;
+    if (ex->get_option("--seed")->count() + me->get_option("--seed")->count() > 0) params.seed = seed;
     if (threads >= 0) params.threads = threads;
     params.validate();
   } catch (const std::invalid_argument& e) {

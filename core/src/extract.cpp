@@ -318,13 +318,12 @@ Symmetry detect_axisymmetry(const Points& x, const Points& n, double L) {
   return sym;
 }
 
-Eigen::Matrix3d jacobian(const Eigen::Matrix4d& H, const Eigen::Vector3d& p) { return transform_jacobian(H, p); }
 
 // For an axisymmetric reference the rotation about its axis is free: choose the one that makes the
 // linear part of H twist least (maximal trace of A R), so that instances come out without an
 // arbitrary spin and the same input always gives the same mesh orientation.
 Eigen::Matrix4d untwist(const Eigen::Matrix4d& H, const Symmetry& sym) {
-  const Eigen::Matrix3d A = jacobian(H, sym.point);
+  const Eigen::Matrix3d A = transform_jacobian(H, sym.point);
   const Eigen::Vector3d a = sym.axis;
   Eigen::Matrix3d K;
   K << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
@@ -366,10 +365,10 @@ Eigen::Matrix4d fit_axisymmetric(const Eigen::Matrix4d& H, const Symmetry& rs, c
   if (!(ts.residual < 0.01 * size)) return H;
   const Eigen::Vector3d ar = rs.axis, cr = rs.point;
   Eigen::Vector3d at = ts.axis;
-  if ((jacobian(H, cr) * ar).dot(at) < 0) at = -at;
+  if ((transform_jacobian(H, cr) * ar).dot(at) < 0) at = -at;
   const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(ar, at).toRotationMatrix();
   // initial parameters from H
-  const double s0 = std::cbrt(std::abs(jacobian(H, cr).determinant()));
+  const double s0 = std::cbrt(std::abs(transform_jacobian(H, cr).determinant()));
   double sr = s0, sa = s0, t = (apply_transform(H, cr) - ts.point).dot(at);
   auto model = [&](double r_, double a_, double t_) {
     Eigen::Matrix4d M = Eigen::Matrix4d::Identity();
@@ -560,7 +559,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       int j;
       double e = surface_distance(T, apply_transform(H, x), &j) / s;
       if (!std::isfinite(e) || j < 0) return false;
-      if ((jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
+      if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
         e = std::max(e, normal_penalty);
       errs.push_back(e);
       sum += std::min(e, normal_penalty);
@@ -677,7 +676,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
             const Eigen::Vector3d y = apply_transform(H, x);
             // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
             // faces instead of being dropped, and pull the fit out to full length)
-            const Eigen::Vector3d nm = (jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
+            const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
             double d2;
             int j = T.dense_tree->nearest(y, &d2);
             if (j < 0) continue;
@@ -714,18 +713,27 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
           H = H2;
           c0 = c1;
         }
-        if (rms_on_surface(H) > rms_unrefined) H = H_unrefined;
-        if (sym.axisymmetric) {  // the symmetric model fit, kept if it fits better
-          bounds_ok(H, &s);
-          // preferred unless clearly worse: a general projective map can lower the RMS a little by
-          // skewing a boss, which the symmetric model (3 parameters on the target's own axis) cannot
-          const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
-          const double rh = rms_on_surface(H);
-          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr) && rms_on_surface(Ha) <= std::max(1.25 * rh, rh + 0.002 * L * s)) H = Ha;
+        double rh = rms_on_surface(H);  // RMS of the current H, kept up to date below
+        if (rh > rms_unrefined) {
+          H = H_unrefined;
+          rh = rms_unrefined;
         }
-        if (sym.axisymmetric) {  // the free spin about the axis: the least twisted one
+        if (sym.axisymmetric) {
+          // The symmetric model fit, preferred unless clearly worse: a general projective map can
+          // lower the RMS a little by skewing a boss, which the symmetric model (3 parameters on the
+          // target's own axis) cannot.
+          bounds_ok(H, &s);
+          const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
+          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr)) {
+            const double ra = rms_on_surface(Ha);
+            if (ra <= std::max(1.25 * rh, rh + 0.002 * L * s)) {
+              H = Ha;
+              rh = ra;
+            }
+          }
+          // the free spin about the axis: the least twisted one
           const Eigen::Matrix4d Hu = untwist(H, sym);
-          if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rms_on_surface(H) + 1e-9 * L) H = Hu;
+          if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rh + 1e-9 * L) H = Hu;
         }
         bounds_ok(H, &s);
       }
@@ -746,7 +754,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         sq += std::isfinite(e) ? e * e : tol * tol * 100;
         if (j < 0 || !(e <= tol)) continue;
         const Eigen::Vector3d nr = R.dense_normals.row(dense_rows[k]);
-        const Eigen::Vector3d nm = jacobian(H, x).inverse().transpose() * nr;
+        const Eigen::Vector3d nm = transform_jacobian(H, x).inverse().transpose() * nr;
         if (nm.normalized().dot(T.dense_normals.row(j)) > 0.5) ++on;
       }
       const double score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows.size()));
@@ -769,7 +777,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
                      order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
                      df.perspective, rr.iterations, accepted ? "accepted" : "rejected");
         const Eigen::Vector3d rc = 0.5 * (rlo + rhi);
-        const Eigen::Matrix3d J = jacobian(H, rc);
+        const Eigen::Matrix3d J = transform_jacobian(H, rc);
         const Eigen::Vector3d m = apply_transform(H, rc);
         std::fprintf(stderr, "   ref center -> (%.1f %.1f %.1f)  J = [%.2f %.2f %.2f; %.2f %.2f %.2f; %.2f %.2f %.2f]\n", m.x(), m.y(), m.z(),
                      J(0, 0), J(0, 1), J(0, 2), J(1, 0), J(1, 1), J(1, 2), J(2, 0), J(2, 1), J(2, 2));

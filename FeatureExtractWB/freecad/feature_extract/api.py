@@ -141,7 +141,7 @@ def save_reference(ref_obj, path):
 # ---------------------------------------------------------------------------------------------
 # extraction
 
-_cache = {}  # key -> fx.Result of recent compute() calls, so that extract() right after does not recompute
+_cache = {}  # key -> (fx.Result, target Mesh) of recent runs, so that extract() right after does not recompute
 _CACHE_SIZE = 4
 
 
@@ -179,7 +179,8 @@ def prepare(target_obj, reference, **params):
 
 
 def run(job, progress=None):
-    """The computation of a Job (core only; releases the GIL). Result is cached for extract()."""
+    """The computation of a Job (core only; releases the GIL). The result is cached for extract(), and
+    the target mesh it was found on is kept in job.target_mesh (mesh transfer projects onto it)."""
     if job.reference is not None:
         ref = fx.read_shape(job.reference)
     else:
@@ -187,7 +188,8 @@ def run(job, progress=None):
     rel, absolute = fx.tessellation_for_feature(ref.diagonal)
     tgt = fx.read_brep_string(job.target_brep, job.target_label, rel, absolute)
     result = fx.extract(ref, tgt, job.params, progress)
-    _cache[job.key] = result
+    job.target_mesh = tgt
+    _cache[job.key] = (result, tgt)
     while len(_cache) > _CACHE_SIZE:
         _cache.pop(next(iter(_cache)))
     return result
@@ -203,12 +205,19 @@ def extract(target_obj, reference, progress=None, **params):
     """Finds the instances of `reference` (a reference feature object, a Part.Shape or a file path) on
     `target_obj` and records one FeatureExtractResult object per instance in the document's result
     group (previous results for the same target and reference are replaced). Returns them."""
-    job = prepare(target_obj, reference, **params)
-    result = _cache.pop(job.key, None)
-    if result is None:
-        result = run(job, progress)
-        _cache.pop(job.key, None)
+    result, _ = _computed(prepare(target_obj, reference, **params), progress)
     return add_results(target_obj, reference, result)
+
+
+def _computed(job, progress=None):
+    """(result, target mesh) of a job: taken from the cache when the GUI has just computed it, else
+    computed now."""
+    cached = _cache.pop(job.key, None)
+    if cached is not None:
+        return cached
+    result = run(job, progress)
+    _cache.pop(job.key, None)
+    return result, job.target_mesh
 
 
 def _reference_link(reference):
@@ -313,12 +322,7 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
         feature = fx.read_feature(feature_dir)
     except ValueError as e:
         raise FeatureExtractError(str(e))
-    job = prepare(target_obj, feature.geometry_path, **params)
-    result = _cache.pop(job.key, None) or run(job, progress)
-    _cache.pop(job.key, None)
-    ref = fx.read_shape(feature.geometry_path)
-    rel, absolute = fx.tessellation_for_feature(ref.diagonal)
-    tgt = fx.read_brep_string(job.target_brep, job.target_label, rel, absolute)
+    result, tgt = _computed(prepare(target_obj, feature.geometry_path, **params), progress)
     transferred = [fx.transfer_mesh(feature.mesh, m.transform, tgt, spec_json=feature.spec_json) for m in result.matches]
     doc = target_obj.Document
     from .objects import FeatureMesh
