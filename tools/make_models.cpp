@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <BRepAlgoAPI_Common.hxx>
 #include <BRepAlgoAPI_Fuse.hxx>
 #include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
@@ -713,6 +714,43 @@ int main(int argc, char** argv) {
     truth << "  \"ribs_bosses_rotated.step\": {\"rotation\": [";
     for (int i = 1; i <= 3; ++i) truth << (i > 1 ? ", " : "") << json_point(m(i, 1), m(i, 2), m(i, 3));
     truth << "]},\n";
+  }
+  // References as users make them (issue 9): the first rib cut out of the plate with a box (the
+  // paper's way): a closed solid whose 4 side faces and bottom are cut faces found nowhere on the
+  // part; also as a closed STL (mesh-only cut detection).
+  {
+    const TopoDS_Shape cutter = BRepPrimAPI_MakeBox(gp_Pnt(25 - 12, 40 - 26, -10), 24, 52, 30).Shape();
+    BRepAlgoAPI_Common common(b, cutter);
+    if (!common.IsDone()) die("box cut of the rib failed");
+    const TopoDS_Shape boxcut = common.Shape();
+    BRepTools::Write(boxcut, (dir + "/rib_boxcut_reference.brep").c_str());
+    fe::write_stl(tessellate(boxcut, 0.05), dir + "/rib_boxcut_reference.stl", true);
+  }
+  // Mirror images (issue 9): L-shaped pads (arms 24 and 14 mm, 6 mm wide, 8 mm high, sharp edges, as
+  // machined) and their mirror images on one plate. An L is chiral on a plate: only a reflection maps
+  // it onto a mirrored one. Reference: the faces of the first pad.
+  {
+    auto pad = [](double x, double y, bool mirrored) {
+      const double sx = mirrored ? -1 : 1;
+      BRepBuilderAPI_MakePolygon poly;
+      const double pts[][2] = {{0, 0}, {24, 0}, {24, 6}, {6, 6}, {6, 14}, {0, 14}};
+      for (const auto& q : pts) poly.Add(gp_Pnt(x + sx * (q[0] - 12), y + q[1] - 7, -0.5));
+      poly.Close();
+      return BRepPrimAPI_MakePrism(BRepBuilderAPI_MakeFace(poly.Wire()).Face(), gp_Vec(0, 0, 8.5)).Shape();
+    };
+    TopoDS_Shape plate = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, -6), 200, 60, 6).Shape();
+    const double xs[] = {30, 75, 125, 170};
+    truth << "  \"l_pads.step\": [";
+    for (int i = 0; i < 4; ++i) {
+      const bool mirrored = i >= 2;
+      BRepAlgoAPI_Fuse f(plate, pad(xs[i], 30, mirrored));
+      if (!f.IsDone()) die("fuse of an L pad failed");
+      plate = f.Shape();
+      truth << (i ? ", " : "") << "{\"center\": " << json_point(xs[i], 30, 4) << ", \"mirrored\": " << (mirrored ? "true" : "false") << "}";
+    }
+    truth << "],\n";
+    write_step(plate, dir + "/l_pads.step");
+    BRepTools::Write(cut_faces(plate, xs[0] - 14, 30 - 9, xs[0] + 14, 30 + 9), (dir + "/l_pad_reference.brep").c_str());
   }
   // bad-input helpers: a flat reference and a target with nothing similar
   write_step(BRepBuilderAPI_MakeFace(gp_Pln(gp::Origin(), gp::DZ()), 0, 30, 0, 20).Shape(), dir + "/flat_reference.step");

@@ -214,7 +214,7 @@ int main(int argc, char** argv) {
             {"nodes", t.mesh.nodes.rows()}, {"projected_nodes", t.projected}, {"unprojected_nodes", t.unprojected},
             {"max_projection_distance", num(t.max_projection_distance)}, {"max_surface_distance", num(t.max_surface_distance)},
             {"quality_before", quality(t.before_summary)}, {"quality_after", quality(t.after_summary)},
-            {"invalid_elements", t.invalid_elements}};
+            {"invalid_elements", t.invalid_elements}, {"reversed", t.reversed}};
     } catch (const std::runtime_error& e) {  // files that cannot be written
       std::cerr << "featureextract: " << stem << ": " << e.what() << "\n";
       return 4;

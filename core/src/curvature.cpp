@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 
 namespace fe {
 
@@ -114,9 +115,67 @@ double shape_index(double k1, double k2, double planar_curvedness) {
 
 bool is_key_shape_index(double si, double band) {
   if (si < 0) return false;                       // planar
+  if (si >= kCreaseShapeIndex) si -= kCreaseShapeIndex;  // sharp creases: the same bands
   if (std::abs(si - 0.25) <= band) return false;  // rut
   if (std::abs(si - 0.75) <= band) return false;  // ridge
   return true;
+}
+
+}  // namespace fe
+
+namespace fe {
+
+Eigen::VectorXd crease_shape_index(const Samples& support, const Samples& query, double radius) {
+  KdTree3 tree(support.points);
+  Eigen::VectorXd out = Eigen::VectorXd::Constant(query.points.rows(), std::numeric_limits<double>::quiet_NaN());
+  const double turn = std::cos(30.0 * M_PI / 180.0), skin = std::cos(150.0 * M_PI / 180.0);
+#pragma omp parallel
+  {
+    std::vector<int> idx;
+    std::vector<float> d2;
+#pragma omp for schedule(dynamic, 256)
+    for (Eigen::Index i = 0; i < query.points.rows(); ++i) {
+      const Eigen::Vector3d p = query.points.row(i), n = query.normals.row(i);
+      tree.radius(p, radius, idx, d2);
+      // support points on other facets: their raw normals turn by 30-150 degrees from this one's
+      // (beyond 150: the other skin of a thin wall, not a crease). A crease is sharp: every support
+      // normal is within 8 degrees of this facet's or of one of at most two other facets' (a
+      // tessellated fillet sweeps through the angles between and is left to the quadric fit).
+      const double tight = std::cos(8.0 * M_PI / 180.0);
+      Eigen::Vector3d m1 = Eigen::Vector3d::Zero(), m2 = Eigen::Vector3d::Zero();
+      double rise[2] = {0, 0};
+      int count[2] = {0, 0}, loose = 0, all = 0;
+      for (int j : idx) {
+        const Eigen::Vector3d m = support.normals.row(j);
+        const double c = m.dot(n);
+        if (c < skin) continue;
+        ++all;
+        if (c > tight) continue;
+        if (c > turn) { ++loose; continue; }
+        if (m1.isZero()) m1 = m;
+        int facet;
+        if (m.dot(m1) > tight) facet = 0;
+        else {
+          if (m2.isZero() && m.dot(m1) < turn) m2 = m;
+          if (m2.isZero() || m.dot(m2) <= tight) { ++loose; continue; }
+          facet = 1;
+        }
+        rise[facet] += (support.points.row(j).transpose() - p).dot(n);
+        ++count[facet];
+      }
+      if (loose > 0.1 * all) continue;
+      if (count[0] < 2) continue;
+      const bool convex0 = rise[0] < 0, convex1 = rise[1] < 0;
+      // two other facets facing away from each other are the two edges of a thin strip, not a corner
+      const bool corner = count[1] >= 2 && m1.dot(m2) > skin;
+      if (!corner) {
+        out(i) = rise[0] + rise[1] < 0 ? 0.75 : 0.25;  // an edge: ridge or rut
+      } else {
+        out(i) = convex0 && convex1 ? 1.0 : (!convex0 && !convex1 ? 0.0 : 0.5);  // a corner: cap, cup or saddle
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace fe

@@ -2,18 +2,21 @@
 #include "featureextract/extract.h"
 
 #include "featureextract/geometry.h"
+#include "featureextract/reference.h"
 #include "kdtree.h"
 #include "pairing.h"
 #include "shot.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numeric>
 #include <random>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
 
@@ -90,6 +93,11 @@ int ladder_steps(double scale, double ratio) {
   return std::max(0, static_cast<int>(std::ceil(std::log(scale) / std::log(ratio) - 1e-9)));
 }
 
+// The reference has too few of the paper's key points (with_fallback tries ridge and rut points).
+struct NoKeyPoints : InputError {
+  using InputError::InputError;
+};
+
 }  // namespace
 
 ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
@@ -145,8 +153,14 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   std::unordered_map<std::uint64_t, char> ridge_cells;
   const double ridge_h = p.ridge_rut_spacing * L;
   const Eigen::Vector3d origin = sparse.points.size() ? Eigen::Vector3d(sparse.points.colwise().minCoeff()) : Eigen::Vector3d::Zero();
+  // Sharp creases (machined features: planes meeting at edges and corners) look planar to the quadric
+  // fit over same-side neighbours; there the crease's own shape index is used, offset so that sharp
+  // and filleted shapes stay apart (kCreaseShapeIndex).
+  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(d->dense, sparse, p.curvature_radius * L)
+                                                     : Eigen::VectorXd::Constant(k.rows(), std::numeric_limits<double>::quiet_NaN());
   for (Eigen::Index i = 0; i < k.rows(); ++i) {
-    const double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
+    double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
+    if ((si == kPlanarShapeIndex || !std::isfinite(si)) && std::isfinite(crease(i))) si = kCreaseShapeIndex + crease(i);
     bool take = is_key_shape_index(si, p.si_band);
     if (!take && ridge_h > 0 && si >= 0) {
       const Eigen::Vector3d g = ((sparse.points.row(i).transpose() - origin) / ridge_h).array().floor();
@@ -216,9 +230,12 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
     for (Eigen::Index i = 0; i < d->shot.valid.rows(); ++i) full += d->shot.valid.row(i).head(d->m).all() ? 1 : 0;
     if (full < 5) {
       std::ostringstream e;
-      e << name << ": reference has no distinctive key points (" << full
-        << " with descriptors, need 5): it is planar, or only ridges and ruts; pick a feature with corners, caps or saddles";
-      throw InputError(e.str());
+      e << name << ": reference has no distinctive key points (" << full << " with descriptors, need 5)";
+      if (p.ridge_rut_spacing > 0)
+        e << ", not even on ridges and ruts: it is one plane, or too small for the sampling";
+      else
+        e << ": it is planar, or only ridges and ruts; pick a feature with corners, caps or saddles";
+      throw NoKeyPoints(e.str());
     }
   }
   return ShapeDescription(d);
@@ -424,6 +441,15 @@ struct Instance {
   std::vector<int> covered;  // target dense samples covered, sorted
 };
 
+// Stable order for the user: by position (x, then y, then z), then score (a strict weak order).
+void sort_matches(std::vector<Match>& m) {
+  std::sort(m.begin(), m.end(), [](const Match& a, const Match& b) {
+    for (int i = 0; i < 3; ++i)
+      if (a.center[i] != b.center[i]) return a.center[i] < b.center[i];
+    return a.score > b.score;
+  });
+}
+
 // Deterministic subsample of at most n row indices.
 std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n) {
   std::vector<Eigen::Index> r;
@@ -483,8 +509,31 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
     for (int i : groups[g]) cluster_of[static_cast<std::size_t>(tkeys[static_cast<std::size_t>(i)])] = static_cast<int>(g);
   std::vector<std::vector<KeyPointPair>> cluster_pairs(groups.size());
   for (const auto& c : css) cluster_pairs[static_cast<std::size_t>(cluster_of[static_cast<std::size_t>(c.tgt)])].push_back(c);
+  // Step 5b (issue 9): on a real part, fillets join every paired key point into one cluster. Each
+  // pair's local frames and scale predict where the reference's center lands (a placement vote); the
+  // votes split each cluster into one group per instance, and RANSAC runs on each group.
+  if (p.vote_reach > 0) {
+    const Eigen::Vector3d rc = 0.5 * (R.box_min + R.box_max);
+    const int mid = R.m / 2;
+    std::vector<std::vector<KeyPointPair>> split;
+    for (const auto& cp : cluster_pairs) {
+      Points votes(static_cast<Eigen::Index>(cp.size()), 3);
+      std::vector<double> sc(cp.size());
+      for (std::size_t i = 0; i < cp.size(); ++i) {
+        const Eigen::Matrix3d rot = T.shot.frame(cp[i].tgt, cp[i].shift + T.D + mid).transpose() * R.shot.frame(cp[i].ref, mid);
+        sc[i] = std::pow(p.shot_radius_ratio, cp[i].shift);
+        votes.row(static_cast<Eigen::Index>(i)) =
+            (T.keys.row(cp[i].tgt).transpose() + sc[i] * rot * (rc - R.keys.row(cp[i].ref).transpose())).transpose();
+      }
+      for (const auto& g : vote_groups(votes, sc, 0.4 * p.vote_reach * L, p.vote_reach * L, p.min_cluster_pairs)) {
+        split.emplace_back();
+        for (int i : g) split.back().push_back(cp[static_cast<std::size_t>(i)]);
+      }
+    }
+    cluster_pairs.swap(split);
+  }
   std::vector<std::size_t> order;
-  for (std::size_t g = 0; g < groups.size(); ++g)
+  for (std::size_t g = 0; g < cluster_pairs.size(); ++g)
     if (static_cast<int>(cluster_pairs[g].size()) >= p.min_cluster_pairs) order.push_back(g);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cluster_pairs[a].size() > cluster_pairs[b].size(); });
   res.clusters = order.size();
@@ -578,6 +627,22 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
     for (double e : errs) sum += std::min(e, normal_penalty);
     return sum / static_cast<double>(errs.size());
   };
+  // Screening of one-pair placements: the truncated mean error over 40 of the evaluation points,
+  // with the scale estimate s (no bounds test: the refinement may still bring it within them).
+  const std::vector<Eigen::Index> screen_rows = stride_rows(eval_pts.rows(), 40);
+  auto screen_cost = [&](const Eigen::Matrix4d& H, double s) -> double {
+    double sum = 0;
+    for (const Eigen::Index i : screen_rows) {
+      const Eigen::Vector3d x = eval_pts.row(i);
+      int j;
+      double e = surface_distance(T, apply_transform(H, x), &j) / s;
+      if (!std::isfinite(e) || j < 0) return INFINITY;
+      if ((H.topLeftCorner<3, 3>().inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
+        e = std::max(e, normal_penalty);
+      sum += std::min(e, normal_penalty);
+    }
+    return sum / static_cast<double>(std::max<std::size_t>(1, screen_rows.size()));
+  };
   // Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile).
   auto quantile_error = [&](const Eigen::Matrix4d& H) -> double {
     double s;
@@ -628,13 +693,63 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         if (c < best_cost_now) best_cost_now = c;
         return c;
       };
+      // Placements from one pair each (issue 9): the pair's local frames give the rotation, its SHOT
+      // radius shift the scale. Where few pairs are right (a real part's cluster), a 5-pair sample is
+      // rarely all right, one pair often is. SHOT's frame axes can flip sign: the four proper sign
+      // changes are tried. The best of these competes with the RANSAC result below.
+      Eigen::Matrix4d pose_h = Eigen::Matrix4d::Identity();
+      double pose_cost = INFINITY;
+      int pose_pair = -1;
+      if (p.pose_hypotheses) {
+        // screened on a few evaluation points, the best few scored in full
+        const int mid = R.m / 2;
+        const Eigen::Vector3d flips[4] = {{1, 1, 1}, {-1, -1, 1}, {-1, 1, -1}, {1, -1, -1}};
+        const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 1500);
+        std::vector<std::pair<double, Eigen::Matrix4d>> screened;
+        for (std::size_t i = 0; i < pairs.size(); i += stride) {
+          const Eigen::Matrix3d fr = R.shot.frame(pairs[i].ref, mid), ft = T.shot.frame(pairs[i].tgt, pairs[i].shift + T.D + mid);
+          if (!fr.allFinite() || !ft.allFinite()) continue;
+          for (const Eigen::Vector3d& f : flips) {
+            const Eigen::Matrix3d lin = scales[i] * ft.transpose() * f.asDiagonal() * fr;
+            Eigen::Matrix4d Hc = Eigen::Matrix4d::Identity();
+            Hc.topLeftCorner<3, 3>() = lin;
+            Hc.topRightCorner<3, 1>() = tp.row(static_cast<Eigen::Index>(i)).transpose() - lin * rp.row(static_cast<Eigen::Index>(i)).transpose();
+            const double q = screen_cost(Hc, scales[i]);
+            if (std::isfinite(q)) screened.emplace_back(q + 1e-12 * static_cast<double>(i), Hc);
+          }
+        }
+        const std::size_t keep = std::min<std::size_t>(screened.size(), 24);
+        std::partial_sort(screened.begin(), screened.begin() + static_cast<long>(keep), screened.end(),
+                          [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (std::size_t k = 0; k < keep; ++k) {
+          const double c = costfn(screened[k].second);
+          if (c < pose_cost) { pose_cost = c; pose_h = screened[k].second; }
+        }
+        if (std::isfinite(pose_cost)) {  // the pair whose target point lies nearest the mapped one
+          double best = INFINITY;
+          for (std::size_t i = 0; i < pairs.size(); ++i) {
+            const double d = (apply_transform(pose_h, rp.row(static_cast<Eigen::Index>(i)).transpose()) - tp.row(static_cast<Eigen::Index>(i)).transpose()).norm();
+            if (d < best) { best = d; pose_pair = static_cast<int>(i); }
+          }
+        }
+      }
+      best_cost_now = INFINITY;  // RANSAC on its own (the one-pair placements must not cut its search short)
       RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size())); });
       if (progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size()))) throw Cancelled();
-      if (!rr.found) {
+      if (!rr.found && pose_pair < 0) {
         if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), rr.iterations);
         break;
       }
-      Eigen::Matrix4d H = rr.H;
+      // Each candidate (RANSAC's, the best one-pair placement) is refitted and refined; the better
+      // refined one is judged. A placement from one pair can settle on a part of the feature that the
+      // refinement cannot extend, RANSAC's fit on a worse local optimum: neither is always right.
+      struct Polished {
+        Eigen::Matrix4d H;
+        double s = 1, rms_unrefined = 0, cost = INFINITY;
+        std::array<int, 5> sample{};
+      };
+      auto polish = [&](const Eigen::Matrix4d& H0, double cost0) -> Polished {
+      Eigen::Matrix4d H = H0;
       double s = 1;
       bounds_ok(H, &s);
       // Least-squares refit on the pairs consistent with H (keeps it only if the error does not grow).
@@ -651,7 +766,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
           }
           Eigen::Matrix4d H2;
           best_cost_now = INFINITY;
-          if (fit_projective(a, b, H2) && cost(H2) <= rr.cost) {
+          if (fit_projective(a, b, H2) && cost(H2) <= cost0) {
             H = H2;
             bounds_ok(H, &s);
           }
@@ -737,6 +852,28 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         }
         bounds_ok(H, &s);
       }
+        best_cost_now = INFINITY;
+        Polished out;
+        out.H = H;
+        out.s = s;
+        out.rms_unrefined = rms_unrefined;
+        out.cost = cost(H);
+        return out;
+      };
+      Polished chosen;
+      if (rr.found) {
+        chosen = polish(rr.H, rr.cost);
+        chosen.sample = rr.sample;
+      }
+      if (pose_pair >= 0) {
+        Polished alt = polish(pose_h, pose_cost);
+        alt.sample.fill(pose_pair);
+        if (!rr.found || alt.cost < 0.75 * chosen.cost) chosen = alt;  // RANSAC's fit unless clearly worse
+      }
+      rr.sample = chosen.sample;
+      const Eigen::Matrix4d H = chosen.H;
+      const double s = chosen.s;
+      const double rms_unrefined = chosen.rms_unrefined;
       const double err = quantile_error(H);
       const double tol = p.accept_error * L * s;
       // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.
@@ -881,11 +1018,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   }
   for (const Instance* k : kept) res.matches.push_back(k->match);
   // Stable order for the user: by position (x, then y, then z), then score (a strict weak order).
-  std::sort(res.matches.begin(), res.matches.end(), [](const Match& a, const Match& b) {
-    for (int i = 0; i < 3; ++i)
-      if (a.center[i] != b.center[i]) return a.center[i] < b.center[i];
-    return a.score > b.score;
-  });
+  sort_matches(res.matches);
   res.timings.push_back({"result", sw.lap()});
   report(progress, "done", 1);
   return res;
@@ -906,22 +1039,32 @@ void check_sizes(const TriangleMesh& reference, const TriangleMesh& target, cons
 }
 
 // The paper's key points miss features made of cylinders and flats (a lug: its hole and outer arc
-// are ruts and ridges). When they find nothing, the search is repeated once with ridge and rut key
-// points (ridge_rut_fallback); the result says so, and its parameters are the ones that found it.
+// are ruts and ridges; a drilled hole, a slot, a step). When they find nothing, or the reference has
+// too few of them to be searched at all, the search is repeated once with ridge and rut key points
+// (ridge_rut_fallback); the result says so, and its parameters are the ones that found it.
 template <class Run>
 Result with_fallback(const Params& params, Run run) {
-  Result res = run(params);
-  if (!res.matches.empty() || !(params.ridge_rut_fallback > 0) || params.ridge_rut_spacing > 0) return res;
+  const bool can_fall_back = params.ridge_rut_fallback > 0 && !(params.ridge_rut_spacing > 0);
+  Result res;
+  std::string why;
+  try {
+    res = run(params);
+    if (!res.matches.empty() || !can_fall_back) return res;
+    why = "nothing found with the paper's key points";
+  } catch (const NoKeyPoints& e) {
+    if (!can_fall_back) throw;
+    why = "the reference has too few of the paper's key points (caps, cups, saddles)";
+  }
   double first = 0;
   for (const auto& t : res.timings) first += t.second;
   Params again = params;
   again.ridge_rut_spacing = params.ridge_rut_fallback;
   Result second = run(again);
   std::ostringstream w;
-  w << "nothing found with the paper's key points; searched again with ridge and rut key points (ridge_rut_spacing "
-    << again.ridge_rut_spacing << "): " << second.matches.size() << " instance(s)";
+  w << why << "; searched with ridge and rut key points too (ridge_rut_spacing " << again.ridge_rut_spacing << "): "
+    << second.matches.size() << " instance(s)";
   second.warnings.insert(second.warnings.begin(), w.str());
-  second.timings.insert(second.timings.begin(), {"first_pass", first});
+  if (first > 0) second.timings.insert(second.timings.begin(), {"first_pass", first});
   return second;
 }
 
@@ -931,44 +1074,130 @@ std::string description_key(double L, const Params& p) {
   k.precision(17);
   k << L << ' ' << p.seed << ' ' << p.ridge_rut_spacing << ' ' << p.dense_spacing << ' ' << p.sparse_spacing << ' ' << p.max_dense_points << ' '
     << p.normal_radius << ' ' << p.curvature_radius << ' ' << p.planar_curvedness << ' ' << p.shot_radius << ' '
-    << p.shot_radii << ' ' << p.shot_radius_ratio << ' ' << p.scale_min << ' ' << p.scale_max << ' ' << p.si_band;
+    << p.shot_radii << ' ' << p.shot_radius_ratio << ' ' << p.scale_min << ' ' << p.scale_max << ' ' << p.si_band << ' ' << p.crease_key_points;
   return k.str();
+}
+
+// Two matches are one instance when they share more than max_overlap of the smaller one's faces
+// (triangles for mesh input; boxes when neither is listed).
+bool same_instance(const Match& a, const Match& b, double max_overlap) {
+  auto shared = [&](std::vector<int> x, std::vector<int> y) {
+    std::sort(x.begin(), x.end());
+    std::sort(y.begin(), y.end());
+    std::vector<int> both;
+    std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
+    return static_cast<double>(both.size()) > max_overlap * static_cast<double>(std::min(x.size(), y.size()));
+  };
+  if (!a.faces.empty() && !b.faces.empty()) return shared(a.faces, b.faces);
+  if (!a.triangles.empty() && !b.triangles.empty()) return shared(a.triangles, b.triangles);
+  const Eigen::Vector3d lo = a.bbox_min.cwiseMax(b.bbox_min), hi = a.bbox_max.cwiseMin(b.bbox_max);
+  if ((lo.array() > hi.array()).any()) return false;
+  const double pad = 1e-9 + 0.01 * ((a.bbox_max - a.bbox_min).norm() + (b.bbox_max - b.bbox_min).norm());
+  auto vol = [&](const Eigen::Vector3d& l, const Eigen::Vector3d& h) { return ((h - l).array() + pad).prod(); };
+  return vol(lo, hi) > max_overlap * std::min(vol(a.bbox_min, a.bbox_max), vol(b.bbox_min, b.bbox_max));
+}
+
+// Matches of the mirrored reference join the result: their H maps the original reference (H M), and
+// where a mirrored and a direct match are the same instance the better score wins (the direct one on
+// a tie, so that a symmetric feature is never reported as mirrored).
+void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p) {
+  for (Match& m : mirrored.matches) {
+    m.transform = m.transform * M;
+    m.transform /= m.transform(3, 3);
+    m.mirrored = true;
+    bool dup = false;
+    for (Match& d : res.matches) {
+      if (!same_instance(m, d, p.max_overlap)) continue;
+      dup = true;
+      if (m.score > d.score + 0.02) d = m;
+      break;
+    }
+    if (!dup) res.matches.push_back(m);
+  }
+  sort_matches(res.matches);
+  res.pairs_shot += mirrored.pairs_shot;
+  res.pairs_ss += mirrored.pairs_ss;
+  res.clusters += mirrored.clusters;
+  for (const auto& t : mirrored.timings)
+    if (t.first.rfind("target_", 0) != 0) res.timings.push_back({"mirror_" + t.first, t.second});
+}
+
+// The reference as searched: without its cut faces when it was cut out of a part (detect_cut_faces).
+struct SearchedReference {
+  TriangleMesh mesh;
+  CutFaces cut;
+};
+SearchedReference searched_reference(const TriangleMesh& reference, const Params& p) {
+  SearchedReference r;
+  if (p.detect_cut_faces) r.cut = detect_cut_faces(reference);
+  r.mesh = r.cut.triangles > 0 ? without_triangles(reference, r.cut.cut_triangle) : reference;
+  return r;
+}
+
+// The whole search for one reference: cut faces, the reference and (unless it is its own mirror
+// image) its mirror image matched against the target's description from `target_for(L, params)`,
+// with the ridge-and-rut fallback around both.
+template <class TargetFor>
+Result search(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
+              TargetFor target_for) {
+  params_in.validate();
+  const SearchedReference sr = searched_reference(reference_in, params_in);
+  const TriangleMesh& reference = sr.mesh;
+  check_sizes(reference, target, params_in);
+  Result res = with_fallback(params_in, [&](const Params& params) {
+    const double L = reference.diagonal();
+    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+    const std::shared_ptr<const ShapeDescription> t = target_for(L, params);
+    Result out = match(r, *t, target, params, progress);
+    if (params.mirror) {
+      const auto& R = r.impl();
+      out.reference_mirror_symmetric = is_mirror_symmetric(R.dense.points, R.dense_normals, 1.5 * R.dense_h);
+      if (!out.reference_mirror_symmetric) {
+        Eigen::Matrix4d M;
+        const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
+        const ShapeDescription rm = describe(mirrored_mesh(reference, c, &M), ShapeDescription::Role::Reference, L, params, progress);
+        merge_mirrored(out, match(rm, *t, target, params, progress), M, params);
+        out.mirror_searched = true;
+      }
+    }
+    return out;
+  });
+  res.reference_closed = sr.cut.closed;
+  res.reference_cut_faces = sr.cut.faces;
+  res.reference_cut_triangles = sr.cut.triangles;
+  if (sr.cut.triangles > 0) {
+    std::ostringstream w;
+    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": closed reference, searched without its "
+      << (sr.cut.faces.empty() ? std::to_string(sr.cut.triangles) + " cut triangles" : std::to_string(sr.cut.faces.size()) + " cut face(s)")
+      << " (planar faces on its bounding box where it was cut out; detect_cut_faces)";
+    res.warnings.push_back(w.str());
+  }
+  return res;
 }
 }  // namespace
 
 PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
 
 Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params_in, const ProgressFn& progress) {
-  params_in.validate();
-  check_sizes(reference, mesh_, params_in);
-  return with_fallback(params_in, [&](const Params& params) {
-    const double L = reference.diagonal();
-    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+  return search(reference, mesh_, params_in, progress, [&](double L, const Params& params) {
     const std::string key = description_key(L, params);
-    std::shared_ptr<const ShapeDescription> t;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
-      for (const auto& c : cache_)
-        if (c.first == key) t = c.second;
-      if (!t) {
-        t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
-        cache_.emplace_back(key, t);
-        ++built_;
-        if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
-      }
-    }
-    return match(r, *t, mesh_, params, progress);
+    std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
+    for (const auto& c : cache_)
+      if (c.first == key) return c.second;
+    auto t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
+    cache_.emplace_back(key, t);
+    ++built_;
+    if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
+    return t;
   });
 }
 
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
-  params_in.validate();
-  check_sizes(reference, target, params_in);
-  return with_fallback(params_in, [&](const Params& params) {
-    const double L = reference.diagonal();
-    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
-    const ShapeDescription t = describe(target, ShapeDescription::Role::Target, L, params, progress);
-    return match(r, t, target, params, progress);
+  std::shared_ptr<const ShapeDescription> t;
+  return search(reference, target, params_in, progress, [&](double L, const Params& params) {
+    // one description per pass (the fallback describes again with its own key points)
+    t = std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
+    return t;
   });
 }
 

@@ -4,6 +4,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
+#include <map>
 #include <cmath>
 #include <numeric>
 
@@ -74,7 +76,7 @@ std::vector<KeyPointPair> shot_pairs(const ShotSet& ref, const ShotSet& tgt, int
   return out;
 }
 
-std::vector<std::vector<int>> si_pairs(const Eigen::VectorXd& ref_si, const Eigen::VectorXd& tgt_si, int M) {
+std::vector<std::vector<int>> si_pairs(const Eigen::VectorXd& ref_si, const Eigen::VectorXd& tgt_si, int M, double max_difference) {
   std::vector<int> order(static_cast<std::size_t>(ref_si.size()));
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int a, int b) { return ref_si(a) < ref_si(b) || (ref_si(a) == ref_si(b) && a < b); });
@@ -89,6 +91,7 @@ std::vector<std::vector<int>> si_pairs(const Eigen::VectorXd& ref_si, const Eige
     auto& o = out[static_cast<std::size_t>(i)];
     while (static_cast<int>(o.size()) < M && (lo >= 0 || hi < static_cast<long>(sorted.size()))) {
       const bool take_hi = lo < 0 || (hi < static_cast<long>(sorted.size()) && std::abs(sorted[static_cast<std::size_t>(hi)] - v) < std::abs(sorted[static_cast<std::size_t>(lo)] - v));
+      if (std::abs(sorted[static_cast<std::size_t>(take_hi ? hi : lo)] - v) > max_difference) break;
       o.push_back(order[static_cast<std::size_t>(take_hi ? hi++ : lo--)]);
     }
   }
@@ -145,6 +148,77 @@ std::vector<std::vector<int>> euclidean_clusters(const Points& pts, double tol) 
     std::sort(clusters.back().begin(), clusters.back().end());
   }
   return clusters;
+}
+
+}  // namespace fe
+
+namespace fe {
+
+std::vector<std::vector<int>> vote_groups(const Points& votes, const std::vector<double>& scales, double cell, double reach,
+                                          int min_pairs) {
+  std::vector<std::vector<int>> groups;
+  const Eigen::Index n = votes.rows();
+  if (n == 0 || !(cell > 0)) return groups;
+  auto key_of = [&](const Eigen::Vector3d& v) {
+    const Eigen::Vector3d g = (v / cell).array().floor();
+    return std::array<long long, 3>{static_cast<long long>(g.x()), static_cast<long long>(g.y()), static_cast<long long>(g.z())};
+  };
+  std::map<std::array<long long, 3>, std::vector<int>> cells;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (votes.row(i).allFinite()) cells[key_of(votes.row(i).transpose())].push_back(static_cast<int>(i));
+  std::vector<char> used(static_cast<std::size_t>(n), 0);
+  auto live = [&](const std::vector<int>& c) {
+    int k = 0;
+    for (int i : c) k += used[static_cast<std::size_t>(i)] ? 0 : 1;
+    return k;
+  };
+  for (int round = 0; round < 1000; ++round) {
+    // the densest 3 x 3 x 3 block of cells (ties: the first in key order, so the result is deterministic)
+    int best = 0;
+    std::array<long long, 3> at{};
+    for (const auto& c : cells) {
+      if (live(c.second) == 0) continue;
+      int sum = 0;
+      for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy)
+          for (long long dz = -1; dz <= 1; ++dz) {
+            const auto it = cells.find({c.first[0] + dx, c.first[1] + dy, c.first[2] + dz});
+            if (it != cells.end()) sum += live(it->second);
+          }
+      if (sum > best) { best = sum; at = c.first; }
+    }
+    if (best < min_pairs) break;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    int cnt = 0;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz) {
+          const auto it = cells.find({at[0] + dx, at[1] + dy, at[2] + dz});
+          if (it == cells.end()) continue;
+          for (int i : it->second)
+            if (!used[static_cast<std::size_t>(i)]) { mean += votes.row(i).transpose(); ++cnt; }
+        }
+    mean /= std::max(1, cnt);
+    std::vector<int> g;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!used[static_cast<std::size_t>(i)] && votes.row(i).allFinite() &&
+          (votes.row(i).transpose() - mean).norm() <= reach * scales[static_cast<std::size_t>(i)])
+        g.push_back(static_cast<int>(i));
+    if (static_cast<int>(g.size()) < min_pairs) {
+      // the block's pairs are too spread around their mean: take them out of the running
+      for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy)
+          for (long long dz = -1; dz <= 1; ++dz) {
+            const auto it = cells.find({at[0] + dx, at[1] + dy, at[2] + dz});
+            if (it != cells.end() && dx == 0 && dy == 0 && dz == 0)
+              for (int i : it->second) used[static_cast<std::size_t>(i)] = 1;
+          }
+      continue;
+    }
+    for (int i : g) used[static_cast<std::size_t>(i)] = 1;
+    groups.push_back(std::move(g));
+  }
+  return groups;
 }
 
 }  // namespace fe

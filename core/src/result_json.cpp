@@ -35,9 +35,15 @@ std::string result_to_json(const Result& r, int indent) {
     o["faces"] = m.faces;
     if (!m.triangles.empty()) o["triangles"] = m.triangles;
     o["pairs"] = m.pairs;
+    o["mirrored"] = m.mirrored;
     j["matches"].push_back(o);
   }
   j["reference"] = stats(r.reference);
+  j["reference"]["closed"] = r.reference_closed;
+  j["reference"]["cut_faces"] = r.reference_cut_faces;
+  j["reference"]["cut_triangles"] = r.reference_cut_triangles;
+  j["reference"]["mirror_symmetric"] = r.reference_mirror_symmetric;
+  j["reference"]["mirror_searched"] = r.mirror_searched;
   j["target"] = stats(r.target);
   j["feature_size"] = num(r.feature_size);
   j["symmetry"] = {{"kind", r.symmetry}};

@@ -78,6 +78,25 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
   out.mesh = reference;
   const Eigen::Index N = reference.nodes.rows();
   if (N == 0) throw std::invalid_argument("transfer_mesh: the reference mesh has no nodes");
+  // A mirrored instance (H a reflection) turns every element inside out: reverse the node order so
+  // that shell normals (and solid volumes) keep their sign. The first node stays first.
+  {
+    const Eigen::Vector3d c = 0.5 * (reference.nodes.colwise().minCoeff() + reference.nodes.colwise().maxCoeff()).transpose();
+    out.reversed = transform_jacobian(H, c).determinant() < 0;
+    if (out.reversed)
+      for (ElementBlock& b : out.mesh.blocks) {
+        std::vector<int> order;
+        switch (b.type) {
+          case ElementType::Tri3: order = {0, 2, 1}; break;
+          case ElementType::Quad4: order = {0, 3, 2, 1}; break;
+          case ElementType::Tet4: order = {0, 2, 1, 3}; break;
+          case ElementType::Hex8: order = {0, 3, 2, 1, 4, 7, 6, 5}; break;
+        }
+        const auto conn = b.conn;
+        for (Eigen::Index r = 0; r < conn.rows(); ++r)
+          for (std::size_t k = 0; k < order.size(); ++k) b.conn(r, static_cast<Eigen::Index>(k)) = conn(r, order[k]);
+      }
+  }
 
   // Node normals of the reference (area-weighted element normals), mapped with the inverse transpose.
   Points node_n = Points::Zero(N, 3);

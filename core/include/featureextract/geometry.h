@@ -36,7 +36,21 @@ constexpr double kPlanarShapeIndex = -1.0;
 /// Returns kPlanarShapeIndex if the curvedness sqrt((k1^2 + k2^2) / 2) < planar_curvedness.
 double shape_index(double k1, double k2, double planar_curvedness);
 
-/// Step 3: is a shape index value a key point (not plane, rut or ridge)?
+/// Step 2b for sharp creases, which a quadric fit over same-side neighbours takes for planes (machined
+/// parts: planes meeting at edges and corners). Within `radius` of each query point, support points
+/// whose raw normals turn 30-150 degrees from the query's (more: the other skin of a thin wall) lie on
+/// other facets. The limit of the shape index as the crease is rounded off: 0.75 on a convex edge
+/// (ridge), 0.25 on a concave one (rut); near a corner of two other facets 1 (cap, both convex),
+/// 0 (cup, both concave) or 0.5 (saddle). NaN where no crease is within reach.
+Eigen::VectorXd crease_shape_index(const Samples& support, const Samples& query, double radius);
+
+/// Shape index values of sharp creases are kCreaseShapeIndex + crease_shape_index(): a sharp edge is
+/// another shape than a filleted one, so the two never pair (the shape index filter and the key point
+/// agreement compare values), while the bands below apply to both alike.
+constexpr double kCreaseShapeIndex = 2.0;
+
+/// Step 3: is a shape index value a key point (not plane, rut or ridge)? Crease values
+/// (>= kCreaseShapeIndex) are judged by the same bands.
 bool is_key_shape_index(double si, double band);
 
 // ---------------------------------------------------------------------------------------------

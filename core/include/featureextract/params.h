@@ -32,6 +32,7 @@ struct Params {
   // --- step 3: key points (shape index bands)
   double si_band = 0.07;  ///< half-width of the rut (0.25) and ridge (0.75) bands that are not key points
   double ridge_rut_spacing = 0.0;  ///< (x L) if > 0, ridge and rut points are key points too, one per cube of this size
+  bool crease_key_points = true;   ///< sharp edges and corners (planes meeting) get the shape index of the rounded crease
   double ridge_rut_fallback = 0.05;  ///< (x L) if nothing is found, search again with ridge_rut_spacing this; 0 = never
 
   // --- step 4: pairs
@@ -42,10 +43,12 @@ struct Params {
   // --- step 5: clusters (x L)
   double cluster_tolerance = 2.0;  ///< Euclidean clustering tolerance of paired target key points
   int min_cluster_pairs = 5;       ///< clusters with fewer pairs are dropped
+  double vote_reach = 0.0;         ///< (x L x scale) placement votes this close to a peak form one instance's group; 0 = clusters only (paper)
 
   // --- step 6: RANSAC projective transform
   int ransac_max_iterations = 4000;  ///< upper bound of iterations per instance search
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
+  bool pose_hypotheses = true;       ///< also try one placement per pair (rotation from local frames, scale from SHOT) against RANSAC's
   int refine_iterations = 30;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
   double error_quantile = 0.9;        ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
@@ -60,6 +63,10 @@ struct Params {
   double max_anisotropy = 3.0;       ///< largest / smallest singular value (oblique distortion)
   double max_perspective = 0.25;     ///< largest |w - 1| over the reference feature's box
   bool allow_reflection = false;     ///< accept transforms with negative determinant (mirror images)
+
+  // --- references as users make them (issue 9)
+  bool mirror = true;            ///< also search the reference's mirror image (unless it is its own); matches say "mirrored"
+  bool detect_cut_faces = true;  ///< a closed reference (cut out with a box) is searched without its cut faces
 
   // --- result
   double face_coverage = 0.5;  ///< a target face is listed if this fraction of it is covered

@@ -23,6 +23,7 @@ struct Match {
   std::vector<int> faces;      ///< 1-based target FaceN covered by the mapped reference (B-rep input)
   std::vector<int> triangles;  ///< 0-based target triangles covered (mesh input)
   int pairs = 0;               ///< key point pairs consistent with H
+  bool mirrored = false;       ///< found by the mirror image of the reference: det of H's linear part < 0
 };
 
 struct ShapeStats {
@@ -43,6 +44,11 @@ struct Result {
   /// along symmetry_axis; each instance's free spin about it is fixed to the least twisted one).
   std::string symmetry = "none";
   Eigen::Vector3d symmetry_point = Eigen::Vector3d::Zero(), symmetry_axis = Eigen::Vector3d::Zero();
+  bool mirror_searched = false;         ///< the mirror image of the reference was searched too
+  bool reference_mirror_symmetric = false;  ///< the reference is its own mirror image (no mirrored search needed)
+  bool reference_closed = false;        ///< the reference is a closed surface (a solid)
+  std::vector<int> reference_cut_faces; ///< 1-based reference faces treated as cut (not searched)
+  std::size_t reference_cut_triangles = 0;
 };
 
 /// The JSON document of the CLI contract (README, "Result JSON").

@@ -44,6 +44,8 @@ struct TransferredMesh {
   double max_projection_distance = 0;  ///< largest move of a node from H's position onto the surface
   double max_surface_distance = 0;     ///< largest distance of a final node from the target triangles
   std::vector<long> invalid_elements;  ///< external ids of elements valid before and inverted after
+  bool reversed = false;               ///< H is a reflection (a mirrored instance): element node order was
+                                       ///< reversed so that shell normals stay outward
   std::string spec_json;               ///< the specification, its axis mapped by H, H added
 };
 

@@ -1,0 +1,44 @@
+// References as users make them (issue 9): a solid cut out of a part with a box carries cut faces
+// that do not exist on the part at that place; a feature may occur as its own mirror image. These
+// functions prepare a reference mesh for the search; extract() calls them, and they are public so
+// that each can be tested alone.
+#pragma once
+
+#include "featureextract/mesh.h"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace fe {
+
+/// What detect_cut_faces found.
+struct CutFaces {
+  bool closed = false;                 ///< the reference is a closed surface (a solid, not picked faces)
+  std::vector<char> cut_triangle;      ///< per triangle: 1 if it lies on a cut face
+  std::vector<int> faces;              ///< 1-based B-rep faces treated as cut (empty for mesh input)
+  std::size_t triangles = 0;           ///< number of cut triangles
+};
+
+/// Cut faces of a reference that was cut out of a part with a box (the paper's own way of making a
+/// reference): only a closed reference can have them (faces picked from a solid form an open shell).
+/// A cut face is a planar region lying in one of the planes of the reference's bounding box, facing
+/// out of it, that reaches at least one other bounding-box plane: the box sliced through material
+/// that goes on beyond the box. A real face that happens to lie on a box plane inside the box (a rib's
+/// top) reaches no other plane and is kept. Regions are B-rep faces, or for mesh input connected
+/// coplanar triangles. `tolerance` is relative to the bounding-box diagonal.
+CutFaces detect_cut_faces(const TriangleMesh& mesh, double tolerance = 2e-3);
+
+/// The mesh without the triangles marked in `drop` (face numbering kept; unused vertices removed).
+TriangleMesh without_triangles(const TriangleMesh& mesh, const std::vector<char>& drop);
+
+/// The mirror image of a mesh through the plane x = center.x() (triangle winding reversed, so that
+/// outward normals stay outward), and the 4 x 4 reflection M with mirrored = M * original.
+TriangleMesh mirrored_mesh(const TriangleMesh& mesh, const Eigen::Vector3d& center, Eigen::Matrix4d* M);
+
+/// Is a sampled surface its own mirror image? Planes through the centroid normal to each principal
+/// axis and to each coordinate axis are tried: symmetric if at least `fraction` of the reflected
+/// points lie within `tolerance` of the surface with agreeing normals. A symmetric reference needs
+/// no mirrored search (its mirror image is a rotated copy of itself).
+bool is_mirror_symmetric(const Points& points, const Points& normals, double tolerance, double fraction = 0.97);
+
+}  // namespace fe

@@ -1,0 +1,226 @@
+// References as users make them: cut faces of a box-cut solid, mirror images (see reference.h).
+#include "featureextract/reference.h"
+
+#include "kdtree.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <tuple>
+#include <unordered_map>
+
+namespace fe {
+
+namespace {
+
+// Vertices welded by position (a B-rep tessellation repeats edge nodes face by face; STL repeats all).
+std::vector<int> weld(const Points& v, double quantum) {
+  std::map<std::tuple<long long, long long, long long>, int> ids;
+  std::vector<int> out(static_cast<std::size_t>(v.rows()));
+  for (Eigen::Index i = 0; i < v.rows(); ++i) {
+    const auto key = std::make_tuple(std::llround(v(i, 0) / quantum), std::llround(v(i, 1) / quantum), std::llround(v(i, 2) / quantum));
+    out[static_cast<std::size_t>(i)] = ids.emplace(key, static_cast<int>(ids.size())).first->second;
+  }
+  return out;
+}
+
+int find_root(std::vector<int>& parent, int i) {
+  while (parent[static_cast<std::size_t>(i)] != i) {
+    parent[static_cast<std::size_t>(i)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(i)])];
+    i = parent[static_cast<std::size_t>(i)];
+  }
+  return i;
+}
+
+}  // namespace
+
+CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
+  CutFaces out;
+  const Eigen::Index T = m.triangles.rows();
+  out.cut_triangle.assign(static_cast<std::size_t>(T), 0);
+  if (T == 0) return out;
+  const Eigen::Vector3d lo = m.vertices.colwise().minCoeff().transpose(), hi = m.vertices.colwise().maxCoeff().transpose();
+  const double diag = (hi - lo).norm();
+  if (!(diag > 0)) return out;
+  const double tol = tolerance * diag;
+  const std::vector<int> vid = weld(m.vertices, 1e-7 * diag);
+
+  // Closed surface? Count edges used by one triangle only (by length).
+  std::unordered_map<std::uint64_t, int> edge_use;
+  double total = 0;
+  auto edge_key = [&](int a, int b) {
+    const auto u = static_cast<std::uint64_t>(std::min(a, b)), w = static_cast<std::uint64_t>(std::max(a, b));
+    return u << 32 | w;
+  };
+  for (Eigen::Index t = 0; t < T; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
+      ++edge_use[edge_key(vid[static_cast<std::size_t>(a)], vid[static_cast<std::size_t>(b)])];
+      total += (m.vertices.row(a) - m.vertices.row(b)).norm();
+    }
+  double open = 0;
+  for (Eigen::Index t = 0; t < T; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
+      if (edge_use[edge_key(vid[static_cast<std::size_t>(a)], vid[static_cast<std::size_t>(b)])] == 1)
+        open += (m.vertices.row(a) - m.vertices.row(b)).norm();
+    }
+  out.closed = open <= 0.005 * total;
+  if (!out.closed) return out;
+
+  // Plane of the bounding box each triangle lies in (0..5 = -x, +x, -y, +y, -z, +z), facing out.
+  std::vector<int> plane(static_cast<std::size_t>(T), -1);
+  std::vector<double> area(static_cast<std::size_t>(T), 0.0);
+  double total_area = 0;
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    area[static_cast<std::size_t>(t)] = 0.5 * n.norm();
+    total_area += area[static_cast<std::size_t>(t)];
+    if (!(n.norm() > 0)) continue;
+    const Eigen::Vector3d u = n.normalized();
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        const double w = side ? hi(axis) : lo(axis);
+        const double facing = side ? u(axis) : -u(axis);
+        if (facing > 0.999 && std::abs(a(axis) - w) <= tol && std::abs(b(axis) - w) <= tol && std::abs(c(axis) - w) <= tol)
+          plane[static_cast<std::size_t>(t)] = 2 * axis + side;
+      }
+  }
+  // Regions: B-rep faces (all of whose triangles lie in one plane), or connected coplanar triangles.
+  std::vector<int> region(static_cast<std::size_t>(T));
+  if (m.from_brep()) {
+    std::vector<int> face_plane(static_cast<std::size_t>(m.num_faces + 1), -2);  // -2 unseen, -1 not in one plane
+    for (Eigen::Index t = 0; t < T; ++t) {
+      const int f = m.face_ids(t);
+      int& fp = face_plane[static_cast<std::size_t>(std::clamp(f, 0, m.num_faces))];
+      const int p = plane[static_cast<std::size_t>(t)];
+      fp = fp == -2 ? p : (fp == p ? fp : -1);
+    }
+    for (Eigen::Index t = 0; t < T; ++t) {
+      const int f = std::clamp(m.face_ids(t), 0, m.num_faces);
+      region[static_cast<std::size_t>(t)] = face_plane[static_cast<std::size_t>(f)] >= 0 && f > 0 ? f : -1;
+    }
+  } else {
+    std::vector<int> parent(static_cast<std::size_t>(T));
+    std::iota(parent.begin(), parent.end(), 0);
+    std::unordered_map<std::uint64_t, int> first;  // (welded vertex, plane) -> a triangle
+    for (Eigen::Index t = 0; t < T; ++t) {
+      const int p = plane[static_cast<std::size_t>(t)];
+      if (p < 0) continue;
+      for (int k = 0; k < 3; ++k) {
+        const std::uint64_t key = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, k))]) * 8 + static_cast<std::uint64_t>(p);
+        const auto it = first.emplace(key, static_cast<int>(t));
+        if (!it.second) parent[static_cast<std::size_t>(find_root(parent, static_cast<int>(t)))] = find_root(parent, it.first->second);
+      }
+    }
+    for (Eigen::Index t = 0; t < T; ++t)
+      region[static_cast<std::size_t>(t)] = plane[static_cast<std::size_t>(t)] >= 0 ? find_root(parent, static_cast<int>(t)) : -1;
+  }
+  // A region is cut if it reaches a bounding-box plane of another axis.
+  std::unordered_map<int, char> reaches;
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int r = region[static_cast<std::size_t>(t)];
+    if (r < 0) continue;
+    const int axis = plane[static_cast<std::size_t>(t)] / 2;
+    char& hit = reaches[r];
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d x = m.vertices.row(m.triangles(t, k));
+      for (int other = 0; other < 3; ++other)
+        if (other != axis && (std::abs(x(other) - lo(other)) <= tol || std::abs(x(other) - hi(other)) <= tol)) hit = 1;
+    }
+  }
+  double cut_area = 0;
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int r = region[static_cast<std::size_t>(t)];
+    if (r >= 0 && reaches[r]) {
+      out.cut_triangle[static_cast<std::size_t>(t)] = 1;
+      cut_area += area[static_cast<std::size_t>(t)];
+    }
+  }
+  // A reference that would be (almost) all cut is a box-like feature itself: keep it whole.
+  if (cut_area > 0.9 * total_area) {
+    std::fill(out.cut_triangle.begin(), out.cut_triangle.end(), 0);
+    return out;
+  }
+  out.triangles = static_cast<std::size_t>(std::count(out.cut_triangle.begin(), out.cut_triangle.end(), 1));
+  if (m.from_brep()) {
+    std::vector<char> is_cut(static_cast<std::size_t>(m.num_faces + 1), 0);
+    for (Eigen::Index t = 0; t < T; ++t)
+      if (out.cut_triangle[static_cast<std::size_t>(t)]) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
+    for (int f = 1; f <= m.num_faces; ++f)
+      if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
+  }
+  return out;
+}
+
+TriangleMesh without_triangles(const TriangleMesh& m, const std::vector<char>& drop) {
+  TriangleMesh out;
+  out.source = m.source;
+  out.num_faces = m.num_faces;
+  out.dropped_degenerate = m.dropped_degenerate;
+  out.reoriented = m.reoriented;
+  std::vector<int> new_id(static_cast<std::size_t>(m.vertices.rows()), -1);
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
+    if (static_cast<std::size_t>(t) >= drop.size() || !drop[static_cast<std::size_t>(t)]) kept.push_back(t);
+  int nv = 0;
+  for (Eigen::Index t : kept)
+    for (int k = 0; k < 3; ++k)
+      if (new_id[static_cast<std::size_t>(m.triangles(t, k))] < 0) new_id[static_cast<std::size_t>(m.triangles(t, k))] = nv++;
+  out.vertices.resize(nv, 3);
+  for (Eigen::Index v = 0; v < m.vertices.rows(); ++v)
+    if (new_id[static_cast<std::size_t>(v)] >= 0) out.vertices.row(new_id[static_cast<std::size_t>(v)]) = m.vertices.row(v);
+  out.triangles.resize(static_cast<Eigen::Index>(kept.size()), 3);
+  out.face_ids.resize(static_cast<Eigen::Index>(kept.size()));
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    for (int k = 0; k < 3; ++k) out.triangles(static_cast<Eigen::Index>(i), k) = new_id[static_cast<std::size_t>(m.triangles(kept[i], k))];
+    out.face_ids(static_cast<Eigen::Index>(i)) = m.face_ids.size() ? m.face_ids(kept[i]) : 0;
+  }
+  return out;
+}
+
+TriangleMesh mirrored_mesh(const TriangleMesh& m, const Eigen::Vector3d& center, Eigen::Matrix4d* M) {
+  TriangleMesh out = m;
+  out.vertices.col(0) = (2.0 * center.x()) - m.vertices.col(0).array();
+  out.triangles.col(1) = m.triangles.col(2);
+  out.triangles.col(2) = m.triangles.col(1);
+  out.source = m.source.empty() ? "mirrored reference" : m.source + " (mirrored)";
+  if (M) {
+    M->setIdentity();
+    (*M)(0, 0) = -1;
+    (*M)(0, 3) = 2.0 * center.x();
+  }
+  return out;
+}
+
+bool is_mirror_symmetric(const Points& points, const Points& normals, double tolerance, double fraction) {
+  const Eigen::Index n = points.rows();
+  if (n < 10 || normals.rows() != n) return false;
+  const KdTree3 tree(points);
+  const Eigen::RowVector3d c = points.colwise().mean();
+  const Points centered = points.rowwise() - c;
+  const Eigen::Matrix3d cov = centered.transpose() * centered / static_cast<double>(n);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  std::vector<Eigen::Vector3d> planes = {es.eigenvectors().col(0), es.eigenvectors().col(1), es.eigenvectors().col(2),
+                                         Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()};
+  const Eigen::Index step = std::max<Eigen::Index>(1, n / 600);
+  for (const Eigen::Vector3d& u : planes) {
+    int tried = 0, ok = 0;
+    for (Eigen::Index i = 0; i < n; i += step) {
+      ++tried;
+      const Eigen::Vector3d p = points.row(i).transpose(), q = p - 2.0 * (p - c.transpose()).dot(u) * u;
+      const Eigen::Vector3d nn = normals.row(i).transpose(), nq = nn - 2.0 * nn.dot(u) * u;
+      double d2;
+      const int j = tree.nearest(q, &d2);
+      if (j >= 0 && std::sqrt(d2) <= tolerance && nq.dot(normals.row(j).transpose()) > 0.8) ++ok;
+    }
+    if (tried > 0 && ok >= fraction * tried) return true;
+  }
+  return false;
+}
+
+}  // namespace fe

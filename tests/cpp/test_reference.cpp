@@ -1,0 +1,226 @@
+// References as users make them (issue 9): box-cut solids with cut faces, closed STL cuts, mirror
+// images, features made of planes (sharp creases). Models from fe_make_models (FE_MODELS).
+#include "featureextract/extract.h"
+#include "featureextract/geometry.h"
+#include "featureextract/io.h"
+#include "featureextract/reference.h"
+#include "featureextract/transfer.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Dense>
+#include <cstdlib>
+#include <fstream>
+
+namespace {
+
+std::string models() {
+  const char* d = std::getenv("FE_MODELS");
+  return d ? d : "models";
+}
+
+nlohmann::json truth() {
+  std::ifstream in(models() + "/truth.json");
+  EXPECT_TRUE(in.good()) << "run fe_make_models first";
+  return nlohmann::json::parse(in);
+}
+
+fe::Result run(const std::string& ref, const std::string& tgt, const fe::Params& p = {}) {
+  const fe::TriangleMesh r = fe::read_shape(models() + "/" + ref);
+  const fe::TriangleMesh t = fe::read_shape(models() + "/" + tgt, fe::tessellation_for_feature(r.diagonal()));
+  return fe::extract(r, t, p);
+}
+
+// Index of the match whose center is within `tol` (in x and y) of (x, y), or -1.
+int match_near(const fe::Result& r, double x, double y, double tol) {
+  for (std::size_t i = 0; i < r.matches.size(); ++i)
+    if (std::abs(r.matches[i].center.x() - x) < tol && std::abs(r.matches[i].center.y() - y) < tol) return static_cast<int>(i);
+  return -1;
+}
+
+// A unit cube [0,1]^3 as 12 outward triangles, optionally without its top (+z) face.
+fe::TriangleMesh cube(bool open_top) {
+  fe::TriangleMesh m;
+  m.vertices.resize(8, 3);
+  for (int i = 0; i < 8; ++i) m.vertices.row(i) << (i & 1), (i >> 1) & 1, (i >> 2) & 1;
+  const int t[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  const int n = open_top ? 10 : 12;
+  m.triangles.resize(n, 3);
+  int k = 0;
+  for (int i = 0; i < 12; ++i) {
+    if (open_top && (i == 2 || i == 3)) continue;
+    m.triangles.row(k++) << t[i][0], t[i][1], t[i][2];
+  }
+  m.face_ids = Eigen::VectorXi::Zero(n);
+  return m;
+}
+
+}  // namespace
+
+TEST(CutFaces, BoxCutRibHasItsSidesAndBottomCutButNotItsTop) {
+  // the first rib of ribs_bosses.step cut out with a box reaching below the plate and above the rib
+  const fe::TriangleMesh ref = fe::read_shape(models() + "/rib_boxcut_reference.brep");
+  const fe::CutFaces c = fe::detect_cut_faces(ref);
+  EXPECT_TRUE(c.closed);
+  ASSERT_EQ(c.faces.size(), 5u);  // 4 box sides and the plate bottom inside the box
+  // the rib's top face lies on the box's top plane but reaches no other side: kept
+  const Eigen::Vector3d hi = ref.vertices.colwise().maxCoeff().transpose();
+  for (Eigen::Index t = 0; t < ref.triangles.rows(); ++t) {
+    bool on_top = true;
+    for (int k = 0; k < 3; ++k) on_top = on_top && std::abs(ref.vertices(ref.triangles(t, k), 2) - hi.z()) < 1e-6;
+    if (on_top) EXPECT_FALSE(c.cut_triangle[static_cast<std::size_t>(t)]) << "rib top triangle " << t << " marked cut";
+  }
+  const fe::TriangleMesh kept = fe::without_triangles(ref, c.cut_triangle);
+  EXPECT_EQ(static_cast<std::size_t>(kept.triangles.rows()), static_cast<std::size_t>(ref.triangles.rows()) - c.triangles);
+}
+
+TEST(CutFaces, PickedFacesAreAnOpenShellWithNothingCut) {
+  const fe::CutFaces c = fe::detect_cut_faces(fe::read_shape(models() + "/rib_reference.step"));
+  EXPECT_FALSE(c.closed);
+  EXPECT_EQ(c.triangles, 0u);
+  EXPECT_TRUE(c.faces.empty());
+}
+
+TEST(CutFaces, AClosedBoxIsAFeatureNotAllCut) {
+  const fe::CutFaces closed = fe::detect_cut_faces(cube(false));
+  EXPECT_TRUE(closed.closed);
+  EXPECT_EQ(closed.triangles, 0u);  // everything would be cut: a box-like feature is kept whole
+  const fe::CutFaces open = fe::detect_cut_faces(cube(true));
+  EXPECT_FALSE(open.closed);
+  EXPECT_EQ(open.triangles, 0u);
+}
+
+TEST(CutFaces, BoxCutReferenceFindsEveryRibAndSaysWhatWasCut) {
+  // issue 9: a box-cut reference found 0 of the ribs before its cut faces were set aside
+  const fe::Result r = run("rib_boxcut_reference.brep", "ribs_bosses.step");
+  EXPECT_TRUE(r.reference_closed);
+  EXPECT_EQ(r.reference_cut_faces.size(), 5u);
+  ASSERT_EQ(r.matches.size(), 5u);
+  for (const auto& rib : truth()["ribs_bosses.step"]["ribs"]) EXPECT_GE(match_near(r, rib[0], rib[1], 4.0), 0) << "rib " << rib;
+  for (const auto& b : truth()["ribs_bosses.step"]["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss " << b;
+  // without the detection the same reference finds nothing: the cut faces are what broke it
+  fe::Params off;
+  off.detect_cut_faces = false;
+  EXPECT_LT(run("rib_boxcut_reference.brep", "ribs_bosses.step", off).matches.size(), 3u);
+}
+
+TEST(CutFaces, ClosedStlCutIsDetectedWithoutFaces) {
+  const fe::Result r = run("rib_boxcut_reference.stl", "ribs_bosses.step");
+  EXPECT_TRUE(r.reference_closed);
+  EXPECT_TRUE(r.reference_cut_faces.empty());  // mesh input: triangles only
+  EXPECT_GT(r.reference_cut_triangles, 0u);
+  EXPECT_EQ(r.matches.size(), 5u);
+}
+
+TEST(Mirror, MirroredMeshReflectsAndKeepsNormalsOutward) {
+  const fe::TriangleMesh c = cube(false);
+  Eigen::Matrix4d M;
+  const fe::TriangleMesh m = fe::mirrored_mesh(c, Eigen::Vector3d(2, 0, 0), &M);
+  EXPECT_LT((M.topLeftCorner<3, 3>().determinant()), 0);
+  for (Eigen::Index i = 0; i < c.vertices.rows(); ++i)
+    EXPECT_TRUE(fe::apply_transform(M, c.vertices.row(i).transpose()).isApprox(m.vertices.row(i).transpose()));
+  // every triangle's normal still points away from the mirrored cube's center
+  const Eigen::Vector3d center = m.vertices.colwise().mean().transpose();
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), d = m.vertices.row(m.triangles(t, 2));
+    EXPECT_GT((b - a).cross(d - a).dot((a + b + d) / 3 - center), 0) << "triangle " << t;
+  }
+}
+
+TEST(Mirror, SymmetricShapesAreRecognized) {
+  // a cube's samples are their own mirror image; an L-shaped pad on a plate is not
+  fe::Params p;
+  const fe::TriangleMesh c = cube(false);
+  const fe::Samples s = fe::sample_surface(c, 0.03, 1);
+  EXPECT_TRUE(fe::is_mirror_symmetric(s.points, s.normals, 0.05));
+  const fe::TriangleMesh l = fe::read_shape(models() + "/l_pad_reference.brep");
+  const fe::Samples ls = fe::sample_surface(l, 0.01 * l.diagonal(), 1);
+  EXPECT_FALSE(fe::is_mirror_symmetric(ls.points, ls.normals, 0.02 * l.diagonal()));
+}
+
+TEST(Mirror, MirrorImagesAreFoundAndReported) {
+  // two L pads and two mirrored ones on one plate, the reference is the first pad's faces
+  const auto t = truth()["l_pads.step"];
+  const fe::Result r = run("l_pad_reference.brep", "l_pads.step");
+  EXPECT_TRUE(r.mirror_searched);
+  EXPECT_FALSE(r.reference_mirror_symmetric);
+  int found = 0;
+  for (const auto& pad : t) {
+    const int i = match_near(r, pad["center"][0], pad["center"][1], 5.0);
+    if (i < 0) continue;
+    ++found;
+    const fe::Match& m = r.matches[static_cast<std::size_t>(i)];
+    EXPECT_EQ(m.mirrored, pad["mirrored"].get<bool>()) << "pad at " << pad["center"];
+    EXPECT_EQ((m.transform.topLeftCorner<3, 3>().determinant() < 0), m.mirrored);
+  }
+  EXPECT_EQ(found, 4);
+  EXPECT_EQ(r.matches.size(), 4u);
+  // without the mirrored search the mirrored pads are not found
+  fe::Params p;
+  p.mirror = false;
+  const fe::Result plain = run("l_pad_reference.brep", "l_pads.step", p);
+  for (const auto& m : plain.matches) EXPECT_FALSE(m.mirrored);
+  EXPECT_LT(match_near(plain, t[2]["center"][0], t[2]["center"][1], 5.0), 0);
+  EXPECT_LT(match_near(plain, t[3]["center"][0], t[3]["center"][1], 5.0), 0);
+}
+
+TEST(Creases, SharpEdgesAndCornersOfACube) {
+  // the quadric fit sees planes; the crease rule sees convex edges (ridges) and corners (caps)
+  const fe::TriangleMesh c = cube(false);
+  const fe::Samples s = fe::sample_surface(c, 0.02, 1);
+  fe::Samples q;
+  q.points.resize(3, 3);
+  q.normals.resize(3, 3);
+  q.points << 0.5, 0.5, 1.0,  // middle of the top face
+      0.5, 0.02, 1.0,         // near the top face's edge y = 0
+      0.03, 0.03, 1.0;        // near the corner (0, 0, 1)
+  q.normals << 0, 0, 1, 0, 0, 1, 0, 0, 1;
+  const Eigen::VectorXd si = fe::crease_shape_index(s, q, 0.08);
+  EXPECT_TRUE(std::isnan(si(0)));
+  EXPECT_DOUBLE_EQ(si(1), 0.75);
+  EXPECT_DOUBLE_EQ(si(2), 1.0);
+  // inside the open cube, seen from within: the same places are concave (rut, cup)
+  fe::TriangleMesh inside = cube(false);
+  inside.triangles.col(1).swap(inside.triangles.col(2));
+  const fe::Samples si_s = fe::sample_surface(inside, 0.02, 1);
+  fe::Samples qi = q;
+  qi.normals *= -1;
+  const Eigen::VectorXd sii = fe::crease_shape_index(si_s, qi, 0.08);
+  EXPECT_DOUBLE_EQ(sii(1), 0.25);
+  EXPECT_DOUBLE_EQ(sii(2), 0.0);
+  EXPECT_TRUE(fe::is_key_shape_index(fe::kCreaseShapeIndex + 1.0, 0.07));
+  EXPECT_FALSE(fe::is_key_shape_index(fe::kCreaseShapeIndex + 0.75, 0.07));
+}
+
+TEST(Creases, PlanarMachinedFeatureIsSearchableAndOnePlaneIsStillRefused) {
+  // the L pad is all planes with sharp edges: it used to be refused ("no distinctive key points")
+  const fe::Result r = run("l_pad_reference.brep", "l_pads.step");
+  EXPECT_GT(r.reference.key_points, 5u);
+  EXPECT_FALSE(r.matches.empty());
+  try {
+    run("flat_reference.step", "ribs_bosses.step");
+    FAIL() << "a single plane was accepted as a reference";
+  } catch (const fe::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no distinctive key points"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Mirror, MeshOnAMirroredInstanceKeepsItsNormalsOutward) {
+  // the boss feature's FE mesh placed by a reflection onto the mirrored boss: element order reversed,
+  // nothing inverted (without the reversal every shell would count as inverted)
+  const fe::FeatureModel feature = fe::read_feature(std::string(FE_FEATURES_DIR) + "/boss");
+  const fe::TriangleMesh geometry = fe::read_shape(feature.geometry_path);
+  Eigen::Matrix4d M;
+  const Eigen::Vector3d c = 0.5 * (geometry.vertices.colwise().minCoeff() + geometry.vertices.colwise().maxCoeff()).transpose();
+  const fe::TriangleMesh target = fe::mirrored_mesh(geometry, c + Eigen::Vector3d(3, 0, 0), &M);
+  const fe::TransferredMesh t = fe::transfer_mesh(feature.mesh, M, target);
+  EXPECT_TRUE(t.reversed);
+  EXPECT_EQ(t.after_summary.inverted, 0u);
+  EXPECT_TRUE(t.invalid_elements.empty());
+  EXPECT_EQ(t.unprojected, 0u);
+  const fe::TransferredMesh same = fe::transfer_mesh(feature.mesh, Eigen::Matrix4d::Identity(), geometry);
+  EXPECT_FALSE(same.reversed);
+  EXPECT_EQ(same.after_summary.inverted, 0u);
+}
