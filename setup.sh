@@ -14,6 +14,7 @@ PACKAGES=(
   libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
   python3 python3-numpy python3-pytest pybind11-dev python3-pybind11
   freecad xvfb xauth
+  occt-misc   # real parts for bench/user_cases.py (Top.brep)
 )
 [ -n "${FE_SKIP_APT:-}" ] || tools/install_packages.sh "${PACKAGES[@]}"
 

@@ -170,7 +170,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("bbox_max", &fe::Match::bbox_max)
       .def_readonly("faces", &fe::Match::faces, "1-based target FaceN covered (B-rep input)")
       .def_readonly("triangles", &fe::Match::triangles, "0-based target triangles covered (mesh input)")
-      .def_readonly("pairs", &fe::Match::pairs);
+      .def_readonly("pairs", &fe::Match::pairs)
+      .def_readonly("mirrored", &fe::Match::mirrored, "found as the reference's mirror image (negative determinant)");
 
   py::class_<fe::ShapeStats>(m, "ShapeStats")
       .def_readonly("triangles", &fe::ShapeStats::triangles)
@@ -192,6 +193,11 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("symmetry", &fe::Result::symmetry, "'none' or 'axisymmetric' (the reference's)")
       .def_readonly("symmetry_point", &fe::Result::symmetry_point)
       .def_readonly("symmetry_axis", &fe::Result::symmetry_axis)
+      .def_readonly("mirror_searched", &fe::Result::mirror_searched, "the reference's mirror image was searched too")
+      .def_readonly("reference_mirror_symmetric", &fe::Result::reference_mirror_symmetric)
+      .def_readonly("reference_closed", &fe::Result::reference_closed, "the reference is a closed surface (a solid)")
+      .def_readonly("reference_cut_faces", &fe::Result::reference_cut_faces, "1-based reference faces treated as cut and not searched")
+      .def_readonly("reference_cut_triangles", &fe::Result::reference_cut_triangles)
       .def("to_json", [](const fe::Result& r) { return fe::result_to_json(r); }, "the CLI's result JSON");
 
   m.def("extract", [](const fe::TriangleMesh& ref, const fe::TriangleMesh& tgt, const fe::Params& p, const py::object& progress) {
@@ -296,6 +302,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("max_projection_distance", &fe::TransferredMesh::max_projection_distance)
       .def_readonly("max_surface_distance", &fe::TransferredMesh::max_surface_distance)
       .def_readonly("invalid_elements", &fe::TransferredMesh::invalid_elements)
+      .def_readonly("reversed", &fe::TransferredMesh::reversed, "element order reversed for a mirrored instance")
       .def_readonly("spec_json", &fe::TransferredMesh::spec_json);
   m.def("transfer_mesh", [](const fe::FeMesh& mesh, const Eigen::Matrix4d& H, const fe::TriangleMesh& target, double max_projection,
                             const std::string& spec_json) {

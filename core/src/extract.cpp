@@ -467,9 +467,22 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   const auto& T = tgtd.impl();
   if (R.role != ShapeDescription::Role::Reference || T.role != ShapeDescription::Role::Target)
     throw std::invalid_argument("match: descriptions have the wrong roles");
-  if (std::abs(R.L - T.L) > 1e-9 * R.L || R.m != T.m || R.params.shot_radius != T.params.shot_radius ||
-      R.params.shot_radius_ratio != T.params.shot_radius_ratio)
+  if (std::abs(R.L - T.L) > 1e-9 * R.L || R.m != T.m)
     throw std::invalid_argument("match: the target was described for another feature size or SHOT radii; describe it again");
+  {
+    // every parameter that shapes a description must agree (the scale range only shapes the target's)
+    const Params &a = R.params, &b = T.params;
+    const std::pair<const char*, bool> same[] = {
+        {"dense_spacing", a.dense_spacing == b.dense_spacing}, {"sparse_spacing", a.sparse_spacing == b.sparse_spacing},
+        {"max_dense_points", a.max_dense_points == b.max_dense_points}, {"normal_radius", a.normal_radius == b.normal_radius},
+        {"curvature_radius", a.curvature_radius == b.curvature_radius}, {"planar_curvedness", a.planar_curvedness == b.planar_curvedness},
+        {"shot_radius", a.shot_radius == b.shot_radius}, {"shot_radii", a.shot_radii == b.shot_radii},
+        {"shot_radius_ratio", a.shot_radius_ratio == b.shot_radius_ratio}, {"si_band", a.si_band == b.si_band},
+        {"ridge_rut_spacing", a.ridge_rut_spacing == b.ridge_rut_spacing}, {"crease_key_points", a.crease_key_points == b.crease_key_points}};
+    for (const auto& c : same)
+      if (!c.second)
+        throw std::invalid_argument(std::string("match: reference and target were described with another ") + c.first + "; describe them with the same parameters");
+  }
   p.validate();
   set_threads(p);
   const double L = R.L;

@@ -3,6 +3,7 @@
 
 #include "file_text.h"
 
+#include <Eigen/Geometry>  // .cross()
 #include <algorithm>
 #include <cctype>
 #include <cmath>

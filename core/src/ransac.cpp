@@ -5,6 +5,7 @@
 #include "featureextract/geometry.h"
 #include "kdtree.h"
 
+#include <Eigen/Geometry>  // .cross()
 #include <random>
 
 namespace fe {

@@ -3,6 +3,7 @@
 // jittered meshes sample like clean ones).
 #include "featureextract/geometry.h"
 
+#include <Eigen/Geometry>  // .cross()
 #include <cmath>
 #include <random>
 #include <unordered_map>

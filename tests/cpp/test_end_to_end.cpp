@@ -3,6 +3,8 @@
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -11,16 +13,9 @@
 
 namespace {
 
-std::string models() {
-  const char* d = std::getenv("FE_MODELS");
-  return d ? d : "models";
-}
-
-nlohmann::json truth() {
-  std::ifstream in(models() + "/truth.json");
-  EXPECT_TRUE(in.good()) << "run fe_make_models first";
-  return nlohmann::json::parse(in);
-}
+using fe_test::models;
+using fe_test::truth;
+using fe_test::match_near;
 
 struct Case {
   fe::TriangleMesh ref, tgt;
@@ -36,13 +31,6 @@ Case load(const std::string& ref, const std::string& tgt) {
 fe::Result run(const std::string& ref, const std::string& tgt, const fe::Params& p = {}) {
   const Case c = load(ref, tgt);
   return fe::extract(c.ref, c.tgt, p);
-}
-
-// Index of the match whose center is within `tol` (in x and y) of (x, y), or -1.
-int match_near(const fe::Result& r, double x, double y, double tol) {
-  for (std::size_t i = 0; i < r.matches.size(); ++i)
-    if (std::abs(r.matches[i].center.x() - x) < tol && std::abs(r.matches[i].center.y() - y) < tol) return static_cast<int>(i);
-  return -1;
 }
 
 void expect_sane(const fe::Match& m) {
@@ -210,6 +198,15 @@ TEST(EndToEnd, TargetDescriptionIsReusable) {
   // a description made for another feature size is refused
   const auto other = fe::describe(c.tgt, fe::ShapeDescription::Role::Target, 2 * L, p);
   EXPECT_THROW(fe::match(rd, other, c.tgt, p), std::invalid_argument);
+  // and so is one described with another descriptor parameter (it used to check only 4 of them)
+  const fe::Params band = fe::params_from_json("{\"si_band\": 0.1}", p);  // (si_band is also a <signal.h> macro)
+  const auto banded = fe::describe(c.tgt, fe::ShapeDescription::Role::Target, L, band);
+  try {
+    fe::match(rd, banded, c.tgt, p);
+    ADD_FAILURE() << "a target described with another si_band was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("si_band"), std::string::npos) << e.what();
+  }
 }
 
 TEST(EndToEnd, CancelStopsTheRun) {

@@ -6,6 +6,8 @@
 #include "featureextract/reference.h"
 #include "featureextract/transfer.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -15,28 +17,14 @@
 
 namespace {
 
-std::string models() {
-  const char* d = std::getenv("FE_MODELS");
-  return d ? d : "models";
-}
-
-nlohmann::json truth() {
-  std::ifstream in(models() + "/truth.json");
-  EXPECT_TRUE(in.good()) << "run fe_make_models first";
-  return nlohmann::json::parse(in);
-}
+using fe_test::models;
+using fe_test::truth;
+using fe_test::match_near;
 
 fe::Result run(const std::string& ref, const std::string& tgt, const fe::Params& p = {}) {
   const fe::TriangleMesh r = fe::read_shape(models() + "/" + ref);
   const fe::TriangleMesh t = fe::read_shape(models() + "/" + tgt, fe::tessellation_for_feature(r.diagonal()));
   return fe::extract(r, t, p);
-}
-
-// Index of the match whose center is within `tol` (in x and y) of (x, y), or -1.
-int match_near(const fe::Result& r, double x, double y, double tol) {
-  for (std::size_t i = 0; i < r.matches.size(); ++i)
-    if (std::abs(r.matches[i].center.x() - x) < tol && std::abs(r.matches[i].center.y() - y) < tol) return static_cast<int>(i);
-  return -1;
 }
 
 // A unit cube [0,1]^3 as 12 outward triangles, optionally without its top (+z) face.

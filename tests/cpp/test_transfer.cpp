@@ -7,6 +7,8 @@
 #include "featureextract/io.h"
 #include "featureextract/transfer.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -15,10 +17,8 @@
 
 namespace {
 
-std::string models() {
-  const char* d = std::getenv("FE_MODELS");
-  return d ? d : "models";
-}
+using fe_test::models;
+
 std::string features() {
   const char* d = std::getenv("FE_FEATURES");
   return d ? d : FE_FEATURES_DIR;

@@ -87,6 +87,17 @@ class App_(unittest.TestCase):
         api.save_reference(ref, brep)
         self.assertEqual(len(Part.read(brep).Faces), len(ref.Faces))
 
+    def test_box_cut_reference_and_mirrored_pads(self):
+        """Issue 9 in FreeCAD: a reference cut out of the part with a box (Part's common, as a user
+        does it) finds every rib; mirrored L pads are results with Mirrored set."""
+        box = Part.makeBox(24, 52, 30, App.Vector(13, 14, -10))
+        results = api.extract(self.part, self.part.Shape.common(box), seed=1)
+        self.assertEqual(len(results), 5)
+        pads = self.doc.addObject("Part::Feature", "Pads")
+        pads.Shape = Part.read(os.path.join(MODELS, "l_pads.step"))
+        found = api.extract(pads, os.path.join(MODELS, "l_pad_reference.brep"), seed=1)
+        self.assertEqual([r.Mirrored for r in sorted(found, key=lambda r: r.Center.x)], [False, False, True, True])
+
     def test_shape_reference(self):
         """A Part.Shape (not a document object) as reference: found, recorded without a link."""
         ref_shape = Part.read(os.path.join(MODELS, "rib_reference.step"))

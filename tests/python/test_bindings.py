@@ -178,3 +178,17 @@ def test_feature_folder_and_mesh_transfer(tmp_path):
         assert np.allclose(back.nodes, t.mesh.nodes) and back.node_sets["BOLT_RIGID"] == t.mesh.node_sets["BOLT_RIGID"]
     with pytest.raises(fx.InputError, match="feature.json"):
         fx.read_feature(str(tmp_path))
+
+
+def test_box_cut_reference_and_mirror_images_are_reported():
+    """Issue 9 from Python: the cut faces a box left on a reference, and mirrored instances."""
+    boxcut = fx.read_shape(os.path.join(MODELS, "rib_boxcut_reference.brep"))
+    r = fx.extract(boxcut, fx.read_target(os.path.join(MODELS, "ribs_bosses.step"), boxcut), seed=1)
+    assert r.reference_closed and len(r.reference_cut_faces) == 5 and len(r.matches) == 5
+    assert any("cut face" in w for w in r.warnings)
+    pad = fx.read_shape(os.path.join(MODELS, "l_pad_reference.brep"))
+    m = fx.extract(pad, fx.read_target(os.path.join(MODELS, "l_pads.step"), pad), seed=1)
+    assert m.mirror_searched and not m.reference_mirror_symmetric
+    by_x = sorted(m.matches, key=lambda x: x.center[0])
+    assert [x.mirrored for x in by_x] == [False, False, True, True]
+    assert all((np.linalg.det(x.transform[:3, :3]) < 0) == x.mirrored for x in by_x)

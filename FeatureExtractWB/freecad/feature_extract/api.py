@@ -260,6 +260,7 @@ def add_results(target_obj, reference, result):
             obj.Center = App.Vector(*[float(x) for x in m.center])
             obj.Faces = [int(f) for f in m.faces]
             obj.Pairs = int(m.pairs)
+            obj.Mirrored = bool(m.mirrored)
             obj.Color = PALETTE[i % len(PALETTE)]
             if App.GuiUp:
                 from .objects import ViewProviderResult

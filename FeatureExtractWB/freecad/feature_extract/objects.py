@@ -49,6 +49,7 @@ class ExtractionResult(_Stateless):
         add("App::PropertyVector", "Center", "Result", "Center of the matched region")
         add("App::PropertyIntegerList", "Faces", "Result", "Matched target faces (FaceN numbers)")
         add("App::PropertyInteger", "Pairs", "Result", "Key point pairs consistent with H")
+        add("App::PropertyBool", "Mirrored", "Result", "Found as the mirror image of the reference (H has a negative determinant)")
         add("App::PropertyColor", "Color", "Result", "Color of the matched faces in the 3D view")
 
     def execute(self, obj):
