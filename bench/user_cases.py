@@ -1,0 +1,321 @@
+#!/usr/bin/python3
+"""Cases built the way users build them (issue 9), scored per case, per reference style and per split.
+
+    /usr/bin/python3 bench/user_cases.py --build build [--only dev|heldout] [--cases REGEX] [--out JSON]
+
+Targets and ground truth (instances as FreeCAD FaceN sets) come from
+  - the generated suite (build/models/suite/suite.json, made by `fe_make_models --suite --real ...`),
+    which includes the real parts NIST FTC-10 (4 ears, mirror images two by two) and FTC-06 (4 bosses);
+  - the labelled MFCAD machining parts in ../shared/data/mfcad (one class with 3+ instances per part);
+References are made from the target's first instance, as a user makes them:
+  - faces: the instance's faces, as picked in FreeCAD (an open shell, written as BREP);
+  - box:   target.common(box) with a box around the instance (the paper's way: a closed solid with
+           cut faces that exist nowhere on the target);
+  - stl:   the triangles of the target's STL inside that box (an open mesh region).
+Variants: `mirror` searches the mirror image of the target (every instance mirrored); `ref1.4` and
+`ref0.7` scale the reference (instances 1/1.4 and 1/0.7 of it).
+
+Scoring: a match is a true positive for the instance whose ground-truth box (grown by 10 % of its
+diagonal) holds the match's center, one to one; every other match is false. The split into
+development and held-out cases is fixed by a hash of the case name (`split()`), decided before any
+tuning; only development cases may be looked at while tuning.
+"""
+import argparse
+import hashlib
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.append("/usr/lib/freecad-python3/lib")
+import FreeCAD as App  # noqa: E402
+import Part  # noqa: E402
+import Mesh  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data")
+
+
+def log(msg):
+    print(f"user_cases: {msg}", file=sys.stderr, flush=True)
+
+
+def split(name):
+    """dev or heldout, from a hash of the base case name (all styles and variants of a case share it)."""
+    return "dev" if hashlib.sha1(name.encode()).digest()[0] % 2 == 0 else "heldout"
+
+
+def bbox_of(shape, faces):
+    b = App.BoundBox()
+    for f in faces:
+        b.add(shape.getElement(f).BoundBox)
+    return b
+
+
+def grown(b, frac):
+    m = frac * b.DiagonalLength
+    return [[b.XMin - m, b.YMin - m, b.ZMin - m], [b.XMax + m, b.YMax + m, b.ZMax + m]]
+
+
+def base_cases(build):
+    """(name, target STEP path, instances as lists of "FaceN") for every source of ground truth."""
+    out = []
+    suite = os.path.join(build, "models", "suite")
+    js = json.load(open(os.path.join(suite, "suite.json")))
+    for c in js["cases"]:
+        if not c["instances"] or c.get("target_is_mesh"):
+            continue
+        inst = [[f"Face{i}" for i in x["faces"]] for x in c["instances"]]
+        out.append((c["name"], os.path.join(suite, c["target"] + ".step"), inst))
+    ctc02 = os.path.join(SHARED, "real", "nist_ctc_02_asme1_rc.stp")
+    if os.path.exists(ctc02):
+        out.append(("ctc02_lugs", ctc02, ctc02_lugs(ctc02)))
+    top = "/usr/share/opencascade/data/occ/Top.brep"  # Debian occt-misc
+    if os.path.exists(top):
+        out.append(("occt_top_bosses", top, top_bosses(top)))
+    mf = os.path.join(SHARED, "mfcad")
+    if os.path.isdir(mf):
+        index = json.load(open(os.path.join(mf, "index.json")))
+        for p in index["parts"]:
+            lab = json.load(open(os.path.join(mf, p["file"].replace(".step", ".labels.json"))))
+            inst = [x["faces"] for x in lab["instances"] if x["class"] == p["target_class"]]
+            out.append((f"mfcad_{p['target_class']}_{p['file'][:-5]}", os.path.join(mf, p["file"]), inst))
+    return out
+
+
+def ctc02_lugs(path):
+    """NIST CTC-02's six mounting lugs (three on each side, mirror images): each is the faces lying
+    within 36 mm (in x and y) of the axis of one of the six R30 outer arcs; the reference is the lug
+    at (-302, 302) (its top, its hole's two halves and its outer arc)."""
+    s = Part.read(path)
+    axes = [f.Surface.Center for f in s.Faces
+            if "Cylinder" in type(f.Surface).__name__ and abs(f.Surface.Radius - 30) < 1e-3]
+    axes.sort(key=lambda c: (abs(c.x + 302) + abs(c.y - 302) > 1, c.x, c.y))  # the reference lug first
+    inst = []
+    for c in axes:
+        inst.append([f"Face{i}" for i, f in enumerate(s.Faces, 1)
+                     if f.BoundBox.XMin >= c.x - 36 and f.BoundBox.XMax <= c.x + 36
+                     and f.BoundBox.YMin >= c.y - 36 and f.BoundBox.YMax <= c.y + 36])
+    return inst
+
+
+def top_bosses(path):
+    """OCCT's Top.brep (a cast pump cover, Debian occt-misc): its four bolt bosses, each the faces
+    within 12 mm (across the axis) of one of the four R4 bolt holes' axes (along y)."""
+    s = Part.read(path)
+    axes = sorted((f.Surface.Center for f in s.Faces
+                   if "Cylinder" in type(f.Surface).__name__ and abs(f.Surface.Radius - 4) < 1e-3),
+                  key=lambda c: (c.x, c.z))
+    return [[f"Face{i}" for i, f in enumerate(s.Faces, 1)
+             if f.BoundBox.XMin >= c.x - 12 and f.BoundBox.XMax <= c.x + 12
+             and f.BoundBox.ZMin >= c.z - 12 and f.BoundBox.ZMax <= c.z + 12] for c in axes]
+
+
+def make_reference(shape, faces, style, work, name, scale=1.0):
+    """Writes the reference of one style and returns its path."""
+    b = bbox_of(shape, faces)
+    if style == "faces":
+        ref = Part.Compound([shape.getElement(f).copy() for f in faces])
+    else:
+        lo, hi = grown(b, 0.2)
+        box = Part.makeBox(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], App.Vector(*lo))
+        ref = shape.common(box)
+    if scale != 1.0:
+        ref = ref.copy()
+        ref.scale(scale, b.Center)
+    if style == "stl":
+        lo, hi = grown(b, 0.2)
+        if scale != 1.0:
+            c = b.Center
+            lo = [c[i] + scale * (lo[i] - c[i]) for i in range(3)]
+            hi = [c[i] + scale * (hi[i] - c[i]) for i in range(3)]
+        whole = shape.copy()
+        if scale != 1.0:
+            whole.scale(scale, b.Center)
+        pts, tris = whole.tessellate(0.002 * b.DiagonalLength * scale)
+        keep = []
+        for t in tris:  # each triangle clipped to the box (a mesh cut without caps: an open region)
+            poly = [tuple(pts[k]) for k in t]
+            for axis in range(3):
+                for bound, inside in ((lo[axis], lambda v, a=axis, w=lo[axis]: v[a] >= w),
+                                      (hi[axis], lambda v, a=axis, w=hi[axis]: v[a] <= w)):
+                    out = []
+                    for k in range(len(poly)):
+                        p, q = poly[k], poly[(k + 1) % len(poly)]
+                        if inside(p):
+                            out.append(p)
+                        if inside(p) != inside(q):
+                            f = (bound - p[axis]) / (q[axis] - p[axis])
+                            out.append(tuple(p[i] + f * (q[i] - p[i]) for i in range(3)))
+                    poly = out
+                    if not poly:
+                        break
+                if not poly:
+                    break
+            for k in range(1, len(poly) - 1):
+                keep.append([poly[0], poly[k], poly[k + 1]])
+        path = os.path.join(work, name + ".stl")
+        Mesh.Mesh(keep).write(path)
+        return path
+    path = os.path.join(work, name + ".brep")
+    ref.exportBrep(path)
+    return path
+
+
+def mirrored_target(path, work, name):
+    s = Part.read(path)
+    m = s.mirror(App.Vector(0, 0, 0), App.Vector(1, 0, 0))
+    if len(m.Faces) != len(s.Faces):
+        raise RuntimeError(f"{path}: mirroring changed the face count")
+    out = os.path.join(work, name + "_mirror.brep")
+    m.exportBrep(out)
+    return out
+
+
+def score(result, shape, instances):
+    """(true positives, false matches, mirrored true positives, per-instance found flags)."""
+    boxes = [grown(bbox_of(shape, f), 0.1) for f in instances]
+    centers = [[(b[0][i] + b[1][i]) / 2 for i in range(3)] for b in boxes]
+    taken = [False] * len(boxes)
+    tp = fp = mirrored = 0
+    for m in result["matches"]:
+        c = m["center"]
+        best, bd = -1, None
+        for k, b in enumerate(boxes):
+            if taken[k] or not all(b[0][i] <= c[i] <= b[1][i] for i in range(3)):
+                continue
+            d = sum((c[i] - centers[k][i]) ** 2 for i in range(3))
+            if bd is None or d < bd:
+                best, bd = k, d
+        if best >= 0:
+            taken[best] = True
+            tp += 1
+            mirrored += 1 if m.get("mirrored") else 0
+        else:
+            fp += 1
+    return tp, fp, mirrored, taken
+
+
+def in_range(shape, instances, lo=0.5, hi=2.0):
+    """Per instance: are its sorted bounding-box extents within lo..hi times the reference instance's
+    (the first)? The issue's goal for machined features counts these."""
+    def ext(faces):
+        b = bbox_of(shape, faces)
+        return sorted([b.XLength, b.YLength, b.ZLength])
+    r = ext(instances[0])
+    out = []
+    for f in instances:
+        e = ext(f)
+        out.append(all(lo <= (e[i] + 1e-9) / (r[i] + 1e-9) <= hi for i in range(3)))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--only", choices=["dev", "heldout"])
+    ap.add_argument("--cases", default="", help="regular expression on case names")
+    ap.add_argument("--styles", default="faces,box,stl")
+    ap.add_argument("--variants", default="plain,mirror,ref1.4,ref0.7")
+    ap.add_argument("--timeout", type=float, default=300)
+    ap.add_argument("--out", default="", help="write the rows as JSON")
+    ap.add_argument("--markdown", nargs="+", metavar="JSON", help="print the tables of earlier runs' JSON rows and exit")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter (for experiments only: results are reported with the defaults)")
+    a = ap.parse_args()
+    if a.markdown:
+        rows = [r for path in a.markdown for r in json.load(open(path))]
+        print(markdown(rows))
+        return
+    exe = os.path.join(a.build, "featureextract")
+    work = tempfile.mkdtemp(prefix="fe_user_cases_")
+    rows = []
+    for name, target, instances in base_cases(a.build):
+        if a.only and split(name) != a.only:
+            continue
+        if a.cases and not re.search(a.cases, name):
+            continue
+        shape = Part.read(target)
+        for variant in a.variants.split(","):
+            scale = {"ref1.4": 1.4, "ref0.7": 0.7}.get(variant, 1.0)
+            tgt, tshape = target, shape
+            if variant == "mirror":
+                tgt = mirrored_target(target, work, name)
+                tshape = Part.read(tgt)
+            for style in a.styles.split(","):
+                cid = f"{name}/{style}/{variant}"
+                try:
+                    ref = make_reference(shape, instances[0], style, work, f"{name}_{style}_{variant}", scale)
+                except Exception as e:  # a reference FreeCAD cannot make (e.g. an empty common)
+                    log(f"{cid}: no reference: {e}")
+                    continue
+                out = os.path.join(work, "out.json")
+                t0 = time.monotonic()
+                p = subprocess.run([exe, "extract", "--reference", ref, "--target", tgt, "--output", out, "--quiet", *[x for kv in a.set for x in ("--set", kv)]],
+                                   capture_output=True, text=True, timeout=a.timeout)
+                sec = time.monotonic() - t0
+                row = {"case": name, "style": style, "variant": variant, "split": split(name),
+                       "instances": len(instances), "seconds": round(sec, 2)}
+                if p.returncode != 0:
+                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances)), found_in_range=0, error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
+                else:
+                    r = json.load(open(out))
+                    tp, fp, mir, hit = score(r, tshape, instances)
+                    rng = in_range(shape, instances)
+                    row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
+                               in_range=sum(rng), found_in_range=sum(1 for h, g in zip(hit, rng) if h and g))
+                rows.append(row)
+                log(f"{cid} [{row['split']}]: {row['found']}/{row['instances']} found, {row['false']} false, "
+                    f"({row['found_in_range']}/{row['in_range']} in 0.5-2x), {row['seconds']} s{' ' + row['error'] if 'error' in row else ''}")
+    if a.out:
+        json.dump(rows, open(a.out, "w"), indent=1)
+    print(summarize(rows))
+
+
+def markdown(rows):
+    """Summary and per-case tables (docs/user_cases.md is made from the JSON of a run: --markdown)."""
+    out = [summarize(rows), "", "Per case (found / instances, false matches, seconds), one column per style and variant:", ""]
+    keys = sorted({(r["style"], r["variant"]) for r in rows}, key=lambda k: (k[1] != "plain", k[1], k[0]))
+    out.append("| case | split | " + " | ".join(f"{s} {v}" for s, v in keys) + " |")
+    out.append("|---|---|" + "---|" * len(keys))
+    by = {}
+    for r in rows:
+        by.setdefault((r["case"], r["split"]), {})[(r["style"], r["variant"])] = r
+    for (case, sp), cells in sorted(by.items(), key=lambda x: (x[0][1], x[0][0])):
+        def cell(k):
+            r = cells.get(k)
+            if not r:
+                return ""
+            t = f"{r['found']}/{r['instances']}"
+            if r["false"]:
+                t += f" +{r['false']}"
+            return t + (" (refused)" if "error" in r else "") + f" {r['seconds']:.0f}s"
+        out.append(f"| {case} | {sp} | " + " | ".join(cell(k) for k in keys) + " |")
+    return "\n".join(out)
+
+
+def summarize(rows):
+    groups = {}
+    for r in rows:
+        for key in [(r["split"], r["style"], r["variant"]), (r["split"], r["style"], "all"), (r["split"], "all", "all")]:
+            g = groups.setdefault(key, [0, 0, 0, 0, 0, 0])
+            g[0] += r["found"]
+            g[1] += r["instances"]
+            g[2] += r["false"]
+            g[3] += 1
+            g[4] += r["found_in_range"]
+            g[5] += r["in_range"]
+    lines = ["| split | style | variant | runs | found | recall | false | precision | recall within 0.5-2x |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for k in sorted(groups):
+        f, n, fp, runs, fr, nr = groups[k]
+        prec = f / (f + fp) if f + fp else 1.0
+        lines.append(f"| {k[0]} | {k[1]} | {k[2]} | {runs} | {f} of {n} | {f / n if n else 0:.2f} | {fp} | {prec:.2f} | "
+                     f"{fr / nr if nr else 0:.2f} ({fr} of {nr}) |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()
