@@ -121,9 +121,6 @@ bool is_key_shape_index(double si, double band) {
   return true;
 }
 
-}  // namespace fe
-
-namespace fe {
 
 Eigen::VectorXd crease_shape_index(const Samples& support, const Samples& query, double radius) {
   KdTree3 tree(support.points);

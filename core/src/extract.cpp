@@ -98,6 +98,18 @@ struct NoKeyPoints : InputError {
   using InputError::InputError;
 };
 
+// The parameters that shape a description (steps 1-3) besides the feature size, the seed and (for a
+// target) the scale range: match() requires them equal, and they key PreparedTarget's cache.
+std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& p) {
+  return {{"dense_spacing", p.dense_spacing},         {"sparse_spacing", p.sparse_spacing},
+          {"max_dense_points", static_cast<double>(p.max_dense_points)},
+          {"normal_radius", p.normal_radius},         {"curvature_radius", p.curvature_radius},
+          {"planar_curvedness", p.planar_curvedness}, {"shot_radius", p.shot_radius},
+          {"shot_radii", p.shot_radii},               {"shot_radius_ratio", p.shot_radius_ratio},
+          {"si_band", p.si_band},                     {"ridge_rut_spacing", p.ridge_rut_spacing},
+          {"crease_key_points", p.crease_key_points ? 1.0 : 0.0}};
+}
+
 }  // namespace
 
 ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
@@ -470,18 +482,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   if (std::abs(R.L - T.L) > 1e-9 * R.L || R.m != T.m)
     throw std::invalid_argument("match: the target was described for another feature size or SHOT radii; describe it again");
   {
-    // every parameter that shapes a description must agree (the scale range only shapes the target's)
-    const Params &a = R.params, &b = T.params;
-    const std::pair<const char*, bool> same[] = {
-        {"dense_spacing", a.dense_spacing == b.dense_spacing}, {"sparse_spacing", a.sparse_spacing == b.sparse_spacing},
-        {"max_dense_points", a.max_dense_points == b.max_dense_points}, {"normal_radius", a.normal_radius == b.normal_radius},
-        {"curvature_radius", a.curvature_radius == b.curvature_radius}, {"planar_curvedness", a.planar_curvedness == b.planar_curvedness},
-        {"shot_radius", a.shot_radius == b.shot_radius}, {"shot_radii", a.shot_radii == b.shot_radii},
-        {"shot_radius_ratio", a.shot_radius_ratio == b.shot_radius_ratio}, {"si_band", a.si_band == b.si_band},
-        {"ridge_rut_spacing", a.ridge_rut_spacing == b.ridge_rut_spacing}, {"crease_key_points", a.crease_key_points == b.crease_key_points}};
-    for (const auto& c : same)
-      if (!c.second)
-        throw std::invalid_argument(std::string("match: reference and target were described with another ") + c.first + "; describe them with the same parameters");
+    const auto a = descriptor_parameters(R.params), b = descriptor_parameters(T.params);
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (a[i].second != b[i].second)
+        throw std::invalid_argument(std::string("match: reference and target were described with another ") + a[i].first +
+                                    "; describe them with the same parameters");
   }
   p.validate();
   set_threads(p);
@@ -522,18 +527,22 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
     for (int i : groups[g]) cluster_of[static_cast<std::size_t>(tkeys[static_cast<std::size_t>(i)])] = static_cast<int>(g);
   std::vector<std::vector<KeyPointPair>> cluster_pairs(groups.size());
   for (const auto& c : css) cluster_pairs[static_cast<std::size_t>(cluster_of[static_cast<std::size_t>(c.tgt)])].push_back(c);
+  // The SHOT local frames of a pair at the middle radius (the target's shifted by the pair's scale):
+  // t_frame(pr)^T r_frame(pr) rotates reference directions into the target.
+  const int mid = R.m / 2;
+  auto r_frame = [&](const KeyPointPair& pr) { return R.shot.frame(pr.ref, mid); };
+  auto t_frame = [&](const KeyPointPair& pr) { return T.shot.frame(pr.tgt, pr.shift + T.D + mid); };
   // Step 5b (issue 9): on a real part, fillets join every paired key point into one cluster. Each
   // pair's local frames and scale predict where the reference's center lands (a placement vote); the
   // votes split each cluster into one group per instance, and RANSAC runs on each group.
   if (p.vote_reach > 0) {
     const Eigen::Vector3d rc = 0.5 * (R.box_min + R.box_max);
-    const int mid = R.m / 2;
     std::vector<std::vector<KeyPointPair>> split;
     for (const auto& cp : cluster_pairs) {
       Points votes(static_cast<Eigen::Index>(cp.size()), 3);
       std::vector<double> sc(cp.size());
       for (std::size_t i = 0; i < cp.size(); ++i) {
-        const Eigen::Matrix3d rot = T.shot.frame(cp[i].tgt, cp[i].shift + T.D + mid).transpose() * R.shot.frame(cp[i].ref, mid);
+        const Eigen::Matrix3d rot = t_frame(cp[i]).transpose() * r_frame(cp[i]);
         sc[i] = std::pow(p.shot_radius_ratio, cp[i].shift);
         votes.row(static_cast<Eigen::Index>(i)) =
             (T.keys.row(cp[i].tgt).transpose() + sc[i] * rot * (rc - R.keys.row(cp[i].ref).transpose())).transpose();
@@ -611,18 +620,23 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   // Paper 3.8 (4)-(5): map the reference key points, error to the nearest dense target point;
   // the error of H is the maximum (or error_quantile) over them, divided by the scale of H.
   std::vector<double> errs;
-  // Per-point errors of H on the evaluation points, in reference units (divided by the scale of H):
-  // distance to the target surface, or at least `normal_penalty` where the normals disagree.
+  // Error of H at evaluation point i, in reference units (divided by the scale s of H): distance to
+  // the target surface, or at least `normal_penalty` where the normals disagree; +inf off the target.
+  auto point_error = [&](const Eigen::Matrix4d& H, Eigen::Index i, double s) -> double {
+    const Eigen::Vector3d x = eval_pts.row(i);
+    int j;
+    double e = surface_distance(T, apply_transform(H, x), &j) / s;
+    if (!std::isfinite(e) || j < 0) return INFINITY;
+    if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
+      e = std::max(e, normal_penalty);
+    return e;
+  };
   auto point_errors = [&](const Eigen::Matrix4d& H, double s, double sum_limit) -> bool {
     errs.clear();
     double sum = 0;
     for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) {
-      const Eigen::Vector3d x = eval_pts.row(i);
-      int j;
-      double e = surface_distance(T, apply_transform(H, x), &j) / s;
-      if (!std::isfinite(e) || j < 0) return false;
-      if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
-        e = std::max(e, normal_penalty);
+      const double e = point_error(H, i, s);
+      if (!std::isfinite(e)) return false;
       errs.push_back(e);
       sum += std::min(e, normal_penalty);
       if (sum > sum_limit) return false;  // cannot beat the best any more
@@ -646,12 +660,8 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   auto screen_cost = [&](const Eigen::Matrix4d& H, double s) -> double {
     double sum = 0;
     for (const Eigen::Index i : screen_rows) {
-      const Eigen::Vector3d x = eval_pts.row(i);
-      int j;
-      double e = surface_distance(T, apply_transform(H, x), &j) / s;
-      if (!std::isfinite(e) || j < 0) return INFINITY;
-      if ((H.topLeftCorner<3, 3>().inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
-        e = std::max(e, normal_penalty);
+      const double e = point_error(H, i, s);
+      if (!std::isfinite(e)) return INFINITY;
       sum += std::min(e, normal_penalty);
     }
     return sum / static_cast<double>(std::max<std::size_t>(1, screen_rows.size()));
@@ -684,10 +694,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       // Rotation of each pair from the SHOT local reference frames at the middle radius compared.
       std::vector<Eigen::Matrix3d> rots(pairs.size());
       for (std::size_t i = 0; i < pairs.size(); ++i) {
-        const int mid = R.m / 2;
-        const Eigen::Matrix3d fr = R.shot.frame(pairs[i].ref, mid);
-        const Eigen::Matrix3d ft = T.shot.frame(pairs[i].tgt, pairs[i].shift + T.D + mid);
-        rots[i] = ft.transpose() * fr;
+        rots[i] = t_frame(pairs[i]).transpose() * r_frame(pairs[i]);
       }
       std::vector<double> scales(pairs.size());
       for (std::size_t i = 0; i < pairs.size(); ++i) scales[i] = std::pow(p.shot_radius_ratio, pairs[i].shift);
@@ -715,12 +722,11 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       int pose_pair = -1;
       if (p.pose_hypotheses) {
         // screened on a few evaluation points, the best few scored in full
-        const int mid = R.m / 2;
         const Eigen::Vector3d flips[4] = {{1, 1, 1}, {-1, -1, 1}, {-1, 1, -1}, {1, -1, -1}};
         const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 1500);
         std::vector<std::pair<double, Eigen::Matrix4d>> screened;
         for (std::size_t i = 0; i < pairs.size(); i += stride) {
-          const Eigen::Matrix3d fr = R.shot.frame(pairs[i].ref, mid), ft = T.shot.frame(pairs[i].tgt, pairs[i].shift + T.D + mid);
+          const Eigen::Matrix3d fr = r_frame(pairs[i]), ft = t_frame(pairs[i]);
           if (!fr.allFinite() || !ft.allFinite()) continue;
           for (const Eigen::Vector3d& f : flips) {
             const Eigen::Matrix3d lin = scales[i] * ft.transpose() * f.asDiagonal() * fr;
@@ -762,109 +768,109 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
         std::array<int, 5> sample{};
       };
       auto polish = [&](const Eigen::Matrix4d& H0, double cost0) -> Polished {
-      Eigen::Matrix4d H = H0;
-      double s = 1;
-      bounds_ok(H, &s);
-      // Least-squares refit on the pairs consistent with H (keeps it only if the error does not grow).
-      {
-        const double tol = p.accept_error * L * s;
-        std::vector<Eigen::Index> in;
-        for (Eigen::Index i = 0; i < rp.rows(); ++i)
-          if ((apply_transform(H, rp.row(i).transpose()) - tp.row(i).transpose()).norm() <= tol) in.push_back(i);
-        if (in.size() >= 6) {
-          Points a(static_cast<Eigen::Index>(in.size()), 3), b(static_cast<Eigen::Index>(in.size()), 3);
-          for (std::size_t k = 0; k < in.size(); ++k) {
-            a.row(static_cast<Eigen::Index>(k)) = rp.row(in[k]);
-            b.row(static_cast<Eigen::Index>(k)) = tp.row(in[k]);
-          }
-          Eigen::Matrix4d H2;
-          best_cost_now = INFINITY;
-          if (fit_projective(a, b, H2) && cost(H2) <= cost0) {
-            H = H2;
-            bounds_ok(H, &s);
-          }
-        }
-      }
-      // Surface refinement (ICP-like): reference dense samples -> foot points on the target's tangent
-      // planes, trimmed, projective least squares (affine if that leaves the bounds); kept while the
-      // error decreases, and as a whole only if the RMS fit error did not grow.
-      const Eigen::Matrix4d H_unrefined = H;
-      const double rms_unrefined = rms_on_surface(H);
-      {
-        best_cost_now = INFINITY;
-        double c0 = cost(H);
-        const double search_radius = 0.25 * L;
-        std::vector<int> near_idx;
-        std::vector<float> near_d2;
-        for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
-          std::vector<Eigen::Vector3d> a, b;
-          std::vector<double> e;
-          for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
-            const Eigen::Vector3d x = refine_pts.row(k);
-            const Eigen::Vector3d y = apply_transform(H, x);
-            // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
-            // faces instead of being dropped, and pull the fit out to full length)
-            const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
-            double d2;
-            int j = T.dense_tree->nearest(y, &d2);
-            if (j < 0) continue;
-            if (nm.dot(T.dense_normals.row(j)) < 0.5) {
-              T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
-              j = -1;
-              d2 = INFINITY;
-              for (std::size_t c = 0; c < near_idx.size(); ++c)
-                if (near_d2[c] < d2 && nm.dot(T.dense_normals.row(near_idx[c])) >= 0.5) { j = near_idx[c]; d2 = near_d2[c]; }
-              if (j < 0) continue;
-            }
-            const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
-            a.push_back(x);
-            b.push_back(y - (y - q).dot(n) * n);
-            e.push_back(std::sqrt(d2));
-          }
-          if (a.size() < 20) break;
-          std::vector<double> sorted = e;
-          std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-          const double cut = std::max(3.0 * sorted[sorted.size() / 2], 2.0 * T.dense_h);
-          Points A(static_cast<Eigen::Index>(a.size()), 3), B(static_cast<Eigen::Index>(a.size()), 3);
-          Eigen::Index n = 0;
-          for (std::size_t k = 0; k < a.size(); ++k)
-            if (e[k] <= cut) { A.row(n) = a[k]; B.row(n++) = b[k]; }
-          A.conservativeResize(n, 3);
-          B.conservativeResize(n, 3);
-          Eigen::Matrix4d H2;
-          bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
-          if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
-          if (!ok) break;
-          best_cost_now = INFINITY;
-          const double c1 = cost(H2);
-          if (!(c1 < c0)) break;
-          H = H2;
-          c0 = c1;
-        }
-        double rh = rms_on_surface(H);  // RMS of the current H, kept up to date below
-        if (rh > rms_unrefined) {
-          H = H_unrefined;
-          rh = rms_unrefined;
-        }
-        if (sym.axisymmetric) {
-          // The symmetric model fit, preferred unless clearly worse: a general projective map can
-          // lower the RMS a little by skewing a boss, which the symmetric model (3 parameters on the
-          // target's own axis) cannot.
-          bounds_ok(H, &s);
-          const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
-          if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr)) {
-            const double ra = rms_on_surface(Ha);
-            if (ra <= std::max(1.25 * rh, rh + 0.002 * L * s)) {
-              H = Ha;
-              rh = ra;
-            }
-          }
-          // the free spin about the axis: the least twisted one
-          const Eigen::Matrix4d Hu = untwist(H, sym);
-          if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rh + 1e-9 * L) H = Hu;
-        }
+        Eigen::Matrix4d H = H0;
+        double s = 1;
         bounds_ok(H, &s);
-      }
+        // Least-squares refit on the pairs consistent with H (keeps it only if the error does not grow).
+        {
+          const double tol = p.accept_error * L * s;
+          std::vector<Eigen::Index> in;
+          for (Eigen::Index i = 0; i < rp.rows(); ++i)
+            if ((apply_transform(H, rp.row(i).transpose()) - tp.row(i).transpose()).norm() <= tol) in.push_back(i);
+          if (in.size() >= 6) {
+            Points a(static_cast<Eigen::Index>(in.size()), 3), b(static_cast<Eigen::Index>(in.size()), 3);
+            for (std::size_t k = 0; k < in.size(); ++k) {
+              a.row(static_cast<Eigen::Index>(k)) = rp.row(in[k]);
+              b.row(static_cast<Eigen::Index>(k)) = tp.row(in[k]);
+            }
+            Eigen::Matrix4d H2;
+            best_cost_now = INFINITY;
+            if (fit_projective(a, b, H2) && cost(H2) <= cost0) {
+              H = H2;
+              bounds_ok(H, &s);
+            }
+          }
+        }
+        // Surface refinement (ICP-like): reference dense samples -> foot points on the target's tangent
+        // planes, trimmed, projective least squares (affine if that leaves the bounds); kept while the
+        // error decreases, and as a whole only if the RMS fit error did not grow.
+        const Eigen::Matrix4d H_unrefined = H;
+        const double rms_unrefined = rms_on_surface(H);
+        {
+          best_cost_now = INFINITY;
+          double c0 = cost(H);
+          const double search_radius = 0.25 * L;
+          std::vector<int> near_idx;
+          std::vector<float> near_d2;
+          for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
+            std::vector<Eigen::Vector3d> a, b;
+            std::vector<double> e;
+            for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
+              const Eigen::Vector3d x = refine_pts.row(k);
+              const Eigen::Vector3d y = apply_transform(H, x);
+              // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
+              // faces instead of being dropped, and pull the fit out to full length)
+              const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
+              double d2;
+              int j = T.dense_tree->nearest(y, &d2);
+              if (j < 0) continue;
+              if (nm.dot(T.dense_normals.row(j)) < 0.5) {
+                T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
+                j = -1;
+                d2 = INFINITY;
+                for (std::size_t c = 0; c < near_idx.size(); ++c)
+                  if (near_d2[c] < d2 && nm.dot(T.dense_normals.row(near_idx[c])) >= 0.5) { j = near_idx[c]; d2 = near_d2[c]; }
+                if (j < 0) continue;
+              }
+              const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
+              a.push_back(x);
+              b.push_back(y - (y - q).dot(n) * n);
+              e.push_back(std::sqrt(d2));
+            }
+            if (a.size() < 20) break;
+            std::vector<double> sorted = e;
+            std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+            const double cut = std::max(3.0 * sorted[sorted.size() / 2], 2.0 * T.dense_h);
+            Points A(static_cast<Eigen::Index>(a.size()), 3), B(static_cast<Eigen::Index>(a.size()), 3);
+            Eigen::Index n = 0;
+            for (std::size_t k = 0; k < a.size(); ++k)
+              if (e[k] <= cut) { A.row(n) = a[k]; B.row(n++) = b[k]; }
+            A.conservativeResize(n, 3);
+            B.conservativeResize(n, 3);
+            Eigen::Matrix4d H2;
+            bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
+            if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
+            if (!ok) break;
+            best_cost_now = INFINITY;
+            const double c1 = cost(H2);
+            if (!(c1 < c0)) break;
+            H = H2;
+            c0 = c1;
+          }
+          double rh = rms_on_surface(H);  // RMS of the current H, kept up to date below
+          if (rh > rms_unrefined) {
+            H = H_unrefined;
+            rh = rms_unrefined;
+          }
+          if (sym.axisymmetric) {
+            // The symmetric model fit, preferred unless clearly worse: a general projective map can
+            // lower the RMS a little by skewing a boss, which the symmetric model (3 parameters on the
+            // target's own axis) cannot.
+            bounds_ok(H, &s);
+            const Eigen::Matrix4d Ha = fit_axisymmetric(H, sym, refine_pts, refine_nrm, T, L * s);
+            if (!Ha.isApprox(H) && bounds_ok(Ha, nullptr)) {
+              const double ra = rms_on_surface(Ha);
+              if (ra <= std::max(1.25 * rh, rh + 0.002 * L * s)) {
+                H = Ha;
+                rh = ra;
+              }
+            }
+            // the free spin about the axis: the least twisted one
+            const Eigen::Matrix4d Hu = untwist(H, sym);
+            if (bounds_ok(Hu, nullptr) && rms_on_surface(Hu) <= 1.05 * rh + 1e-9 * L) H = Hu;
+          }
+          bounds_ok(H, &s);
+        }
         best_cost_now = INFINITY;
         Polished out;
         out.H = H;
@@ -1085,9 +1091,8 @@ Result with_fallback(const Params& params, Run run) {
 std::string description_key(double L, const Params& p) {
   std::ostringstream k;
   k.precision(17);
-  k << L << ' ' << p.seed << ' ' << p.ridge_rut_spacing << ' ' << p.dense_spacing << ' ' << p.sparse_spacing << ' ' << p.max_dense_points << ' '
-    << p.normal_radius << ' ' << p.curvature_radius << ' ' << p.planar_curvedness << ' ' << p.shot_radius << ' '
-    << p.shot_radii << ' ' << p.shot_radius_ratio << ' ' << p.scale_min << ' ' << p.scale_max << ' ' << p.si_band << ' ' << p.crease_key_points;
+  k << L << ' ' << p.seed << ' ' << p.scale_min << ' ' << p.scale_max;
+  for (const auto& f : descriptor_parameters(p)) k << ' ' << f.second;
   return k.str();
 }
 
@@ -1206,11 +1211,9 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
 }
 
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
-  std::shared_ptr<const ShapeDescription> t;
   return search(reference, target, params_in, progress, [&](double L, const Params& params) {
     // one description per pass (the fallback describes again with its own key points)
-    t = std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
-    return t;
+    return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
   });
 }
 

@@ -150,9 +150,6 @@ std::vector<std::vector<int>> euclidean_clusters(const Points& pts, double tol) 
   return clusters;
 }
 
-}  // namespace fe
-
-namespace fe {
 
 std::vector<std::vector<int>> vote_groups(const Points& votes, const std::vector<double>& scales, double cell, double reach,
                                           int min_pairs) {

@@ -36,10 +36,6 @@ std::vector<KeyPointPair> filter_by_shape_index(const std::vector<KeyPointPair>&
 /// Euclidean clusters (single linkage with tolerance) of points; each cluster lists point indices.
 std::vector<std::vector<int>> euclidean_clusters(const Points& points, double tolerance);
 
-}  // namespace fe
-
-namespace fe {
-
 /// Placement voting (issue 9, many instances on one connected part): each pair, with its rotation
 /// (reference -> target, from the local reference frames) and scale estimate, predicts where the
 /// reference's center lands on the target: t + s R (c - r). Pairs of one instance agree, pairs of two

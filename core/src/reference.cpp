@@ -49,25 +49,21 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
   const std::vector<int> vid = weld(m.vertices, 1e-7 * diag);
 
   // Closed surface? Count edges used by one triangle only (by length).
-  std::unordered_map<std::uint64_t, int> edge_use;
+  std::unordered_map<std::uint64_t, std::pair<int, double>> edges;  // welded edge -> uses, length
   double total = 0;
-  auto edge_key = [&](int a, int b) {
-    const auto u = static_cast<std::uint64_t>(std::min(a, b)), w = static_cast<std::uint64_t>(std::max(a, b));
-    return u << 32 | w;
-  };
   for (Eigen::Index t = 0; t < T; ++t)
     for (int k = 0; k < 3; ++k) {
       const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
-      ++edge_use[edge_key(vid[static_cast<std::size_t>(a)], vid[static_cast<std::size_t>(b)])];
-      total += (m.vertices.row(a) - m.vertices.row(b)).norm();
+      const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(a)]), w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(b)]);
+      const double len = (m.vertices.row(a) - m.vertices.row(b)).norm();
+      auto& e = edges[std::min(u, w) << 32 | std::max(u, w)];
+      ++e.first;
+      e.second = len;
+      total += len;
     }
   double open = 0;
-  for (Eigen::Index t = 0; t < T; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
-      if (edge_use[edge_key(vid[static_cast<std::size_t>(a)], vid[static_cast<std::size_t>(b)])] == 1)
-        open += (m.vertices.row(a) - m.vertices.row(b)).norm();
-    }
+  for (const auto& e : edges)
+    if (e.second.first == 1) open += e.second.second;
   out.closed = open <= 0.005 * total;
   if (!out.closed) return out;
 
