@@ -13,7 +13,8 @@ References are made from the target's first instance, as a user makes them:
            cut faces that exist nowhere on the target);
   - stl:   the triangles of the target's STL inside that box (an open mesh region).
 Variants: `mirror` searches the mirror image of the target (every instance mirrored); `ref1.4` and
-`ref0.7` scale the reference (instances 1/1.4 and 1/0.7 of it).
+`ref0.7` scale the reference (instances 1/1.4 and 1/0.7 of it); `stretch` searches the target
+stretched 1.5x along x (instances stretched, or sheared where they lie rotated).
 
 Scoring: a match is a true positive for the instance whose ground-truth box (grown by 10 % of its
 diagonal) holds the match's center, one to one; every other match is false. The split into
@@ -175,12 +176,28 @@ def mirrored_target(path, work, name):
     return out
 
 
+def stretched_target(path, work, name, factor=1.5):
+    """The target stretched by `factor` along x (a cast or a variant of the part): every instance is
+    stretched, or sheared where it lies rotated; faces keep their numbers."""
+    s = Part.read(path)
+    m = App.Matrix()
+    m.scale(factor, 1, 1)
+    t = s.transformGeometry(m)
+    if len(t.Faces) != len(s.Faces):
+        raise RuntimeError(f"{path}: stretching changed the face count")
+    out = os.path.join(work, name + "_stretch.brep")
+    t.exportBrep(out)
+    return out
+
+
 def score(result, shape, instances):
-    """(true positives, false matches, mirrored true positives, per-instance found flags)."""
+    """(true positives, false matches, mirrored true positives, per-instance found flags, per-match
+    true/false)."""
     boxes = [grown(bbox_of(shape, f), 0.1) for f in instances]
     centers = [[(b[0][i] + b[1][i]) / 2 for i in range(3)] for b in boxes]
     taken = [False] * len(boxes)
     tp = fp = mirrored = 0
+    labels = []
     for m in result["matches"]:
         c = m["center"]
         best, bd = -1, None
@@ -190,25 +207,27 @@ def score(result, shape, instances):
             d = sum((c[i] - centers[k][i]) ** 2 for i in range(3))
             if bd is None or d < bd:
                 best, bd = k, d
+        labels.append(best >= 0)
         if best >= 0:
             taken[best] = True
             tp += 1
             mirrored += 1 if m.get("mirrored") else 0
         else:
             fp += 1
-    return tp, fp, mirrored, taken
+    return tp, fp, mirrored, taken, labels
 
 
-def in_range(shape, instances, lo=0.5, hi=2.0):
-    """Per instance: are its sorted bounding-box extents within lo..hi times the reference instance's
-    (the first)? The issue's goal for machined features counts these."""
-    def ext(faces):
-        b = bbox_of(shape, faces)
-        return sorted([b.XLength, b.YLength, b.ZLength])
-    r = ext(instances[0])
+def in_range(ref_shape, ref_faces, scale, shape, instances, lo=0.5, hi=2.0):
+    """Per instance (on `shape`): are its sorted bounding-box extents within lo..hi times the
+    reference's (`ref_faces` of `ref_shape`, scaled by `scale`)? The issue's goal for machined
+    features counts these."""
+    def ext(s, faces, k=1.0):
+        b = bbox_of(s, faces)
+        return sorted([k * b.XLength, k * b.YLength, k * b.ZLength])
+    r = ext(ref_shape, ref_faces, scale)
     out = []
     for f in instances:
-        e = ext(f)
+        e = ext(shape, f)
         out.append(all(lo <= (e[i] + 1e-9) / (r[i] + 1e-9) <= hi for i in range(3)))
     return out
 
@@ -219,9 +238,10 @@ def main():
     ap.add_argument("--only", choices=["dev", "heldout"])
     ap.add_argument("--cases", default="", help="regular expression on case names")
     ap.add_argument("--styles", default="faces,box,stl")
-    ap.add_argument("--variants", default="plain,mirror,ref1.4,ref0.7")
+    ap.add_argument("--variants", default="plain,mirror,ref1.4,ref0.7,stretch")
     ap.add_argument("--timeout", type=float, default=300)
     ap.add_argument("--out", default="", help="write the rows as JSON")
+    ap.add_argument("--evidence", action="store_true", help="add each match's acceptance evidence, labelled true or false, to the rows")
     ap.add_argument("--markdown", nargs="+", metavar="JSON", help="print the tables of earlier runs' JSON rows and exit")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter (for experiments only: results are reported with the defaults)")
     a = ap.parse_args()
@@ -241,8 +261,8 @@ def main():
         for variant in a.variants.split(","):
             scale = {"ref1.4": 1.4, "ref0.7": 0.7}.get(variant, 1.0)
             tgt, tshape = target, shape
-            if variant == "mirror":
-                tgt = mirrored_target(target, work, name)
+            if variant in ("mirror", "stretch"):
+                tgt = (mirrored_target if variant == "mirror" else stretched_target)(target, work, name)
                 tshape = Part.read(tgt)
             for style in a.styles.split(","):
                 cid = f"{name}/{style}/{variant}"
@@ -259,11 +279,18 @@ def main():
                 row = {"case": name, "style": style, "variant": variant, "split": split(name),
                        "instances": len(instances), "seconds": round(sec, 2)}
                 if p.returncode != 0:
-                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances)), found_in_range=0, error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
+                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances[0], scale, tshape, instances)), found_in_range=0, error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
                 else:
                     r = json.load(open(out))
-                    tp, fp, mir, hit = score(r, tshape, instances)
-                    rng = in_range(shape, instances)
+                    tp, fp, mir, hit, labels = score(r, tshape, instances)
+                    if a.evidence:  # what each match was accepted on, and whether it was right
+                        L = r["feature_size"]
+                        row["evidence"] = [{"true": ok, "score": m["score"], "error": m["max_error"] / (L * m["scale"]),
+                                            "rms": m["rms_error"] / (L * m["scale"]), "keys": m.get("key_agreement"),
+                                            "stretch": m.get("stretch"), "perspective": m.get("perspective"),
+                                            "faces": len(m["faces"]), "pairs": m["pairs"], "scale": m["scale"]}
+                                           for m, ok in zip(r["matches"], labels)]
+                    rng = in_range(shape, instances[0], scale, tshape, instances)
                     row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
                                in_range=sum(rng), found_in_range=sum(1 for h, g in zip(hit, rng) if h and g))
                 rows.append(row)

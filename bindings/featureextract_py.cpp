@@ -171,6 +171,10 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("faces", &fe::Match::faces, "1-based target FaceN covered (B-rep input)")
       .def_readonly("triangles", &fe::Match::triangles, "0-based target triangles covered (mesh input)")
       .def_readonly("pairs", &fe::Match::pairs)
+      .def_readonly("key_agreement", &fe::Match::key_agreement, "fraction of reference key points landing near target key points of similar shape index")
+      .def_readonly("stretch_min", &fe::Match::stretch_min, "smallest singular value of H's Jacobian at the feature's center")
+      .def_readonly("stretch_max", &fe::Match::stretch_max, "largest singular value of H's Jacobian at the feature's center")
+      .def_readonly("perspective", &fe::Match::perspective, "largest |w - 1| of H over the reference feature's box")
       .def_readonly("mirrored", &fe::Match::mirrored, "found as the reference's mirror image (negative determinant)");
 
   py::class_<fe::ShapeStats>(m, "ShapeStats")

@@ -972,6 +972,13 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       mt.rms_error_unrefined = rms_unrefined;
       mt.scale = s;
       mt.pairs = static_cast<int>(explained);
+      mt.key_agreement = key_agreement;
+      {
+        const Deformation df = deformation(H, rlo, rhi);
+        mt.stretch_min = df.scale_min;
+        mt.stretch_max = df.scale_max;
+        mt.perspective = df.perspective;
+      }
       // Covered target region: dense samples near the mapped reference.
       const double cov = tol + R.dense_h * s;
       const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(cov);

@@ -35,6 +35,9 @@ std::string result_to_json(const Result& r, int indent) {
     o["faces"] = m.faces;
     if (!m.triangles.empty()) o["triangles"] = m.triangles;
     o["pairs"] = m.pairs;
+    o["key_agreement"] = num(m.key_agreement);
+    o["stretch"] = {num(m.stretch_min), num(m.stretch_max)};
+    o["perspective"] = num(m.perspective);
     o["mirrored"] = m.mirrored;
     j["matches"].push_back(o);
   }

@@ -23,6 +23,9 @@ struct Match {
   std::vector<int> faces;      ///< 1-based target FaceN covered by the mapped reference (B-rep input)
   std::vector<int> triangles;  ///< 0-based target triangles covered (mesh input)
   int pairs = 0;               ///< key point pairs consistent with H
+  double key_agreement = 0;    ///< fraction of reference key points landing near target key points of similar SI
+  double stretch_min = 1, stretch_max = 1;  ///< smallest and largest singular value of H's Jacobian at the feature's center
+  double perspective = 0;      ///< largest |w - 1| of H over the reference feature's box
   bool mirrored = false;       ///< found by the mirror image of the reference: det of H's linear part < 0
 };
 
