@@ -76,6 +76,7 @@ PYBIND11_MODULE(_core, m) {
 
   static py::exception<fe::InputError> input_error(m, "InputError", PyExc_ValueError);
   static py::exception<fe::Cancelled> cancelled(m, "Cancelled", PyExc_RuntimeError);
+  static py::exception<fe::TimeLimitExceeded> time_limit(m, "TimeLimitError", PyExc_TimeoutError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -83,6 +84,8 @@ PYBIND11_MODULE(_core, m) {
       input_error(e.what());
     } catch (const fe::Cancelled& e) {
       cancelled(e.what());
+    } catch (const fe::TimeLimitExceeded& e) {
+      time_limit(e.what());
     }
   });
 
@@ -104,26 +107,31 @@ PYBIND11_MODULE(_core, m) {
                std::to_string(x.num_faces) + " faces>";
       });
 
-  m.def("read_shape", [](const std::string& path, double relative_deflection, double absolute_deflection) {
+  m.def("read_shape", [](const std::string& path, double relative_deflection, double absolute_deflection, double time_limit) {
         fe::TessellationOptions o;
         o.relative_deflection = relative_deflection;
         o.absolute_deflection = absolute_deflection;
+        o.time_limit = time_limit;
         py::gil_scoped_release release;
         return fe::read_shape(path, o);
       },
       py::arg("path"), py::arg("relative_deflection") = fe::TessellationOptions{}.relative_deflection,
-      py::arg("absolute_deflection") = 0.0,
-      "Read STEP/IGES/BREP (tessellated) or STL/OBJ/PLY. Raises InputError naming the file.");
-  m.def("read_brep_string", [](const std::string& brep, const std::string& name, double relative_deflection, double absolute_deflection) {
+      py::arg("absolute_deflection") = 0.0, py::arg("time_limit") = fe::TessellationOptions{}.time_limit,
+      "Read STEP/IGES/BREP (tessellated, in a child process stopped after time_limit seconds; < 0: 20 s + 10 s "
+      "per MB) or STL/OBJ/PLY. Raises InputError naming the file, also when the CAD reader crashes or hangs.");
+  m.def("read_brep_string", [](const std::string& brep, const std::string& name, double relative_deflection, double absolute_deflection,
+                               double time_limit) {
         fe::TessellationOptions o;
         o.relative_deflection = relative_deflection;
         o.absolute_deflection = absolute_deflection;
+        o.time_limit = time_limit;
         py::gil_scoped_release release;
         return fe::read_brep_string(brep, o, name);
       },
       py::arg("brep"), py::arg("name") = "<brep string>", py::arg("relative_deflection") = fe::TessellationOptions{}.relative_deflection,
-      py::arg("absolute_deflection") = 0.0,
-      "Tessellate a B-rep from Part.Shape.exportBrepToString(); faces keep FreeCAD's FaceN numbering.");
+      py::arg("absolute_deflection") = 0.0, py::arg("time_limit") = fe::TessellationOptions{}.time_limit,
+      "Tessellate a B-rep from Part.Shape.exportBrepToString() (in a child process, like read_shape); faces keep "
+      "FreeCAD's FaceN numbering.");
 
   auto params = py::class_<fe::Params>(m, "Params", "Extraction parameters; lengths are fractions of L, the reference diagonal.");
   params.def(py::init<>())

@@ -16,15 +16,18 @@ specification); fx.transfer_mesh(feature.mesh, match.transform, target) places t
 instance (nodes on the target surface, quality before and after); fx.write_inp / fx.write_msh save it.
 
 Long runs release the GIL; pass progress=callable(stage, fraction) and return False from it to cancel
-(fx.Cancelled is raised). Bad input raises fx.InputError (a ValueError) naming the file.
+(fx.Cancelled is raised); a run longer than its time_limit parameter raises fx.TimeLimitError (a
+TimeoutError). Bad input raises fx.InputError (a ValueError) naming the file. STEP, IGES and BREP are
+read in a child process, so a file that crashes OpenCASCADE raises InputError instead of killing the
+interpreter (or FreeCAD).
 """
 from ._core import (Cancelled, Description, FeatureModel, FeMesh, InputError, Match, Mesh, Params, PreparedTarget,  # noqa: F401
-                    Result, ShapeStats, TransferredMesh, describe, element_quality, extract as _extract, param_table,
+                    Result, ShapeStats, TimeLimitError, TransferredMesh, describe, element_quality, extract as _extract, param_table,
                     read_brep_string, read_feature, read_fe_mesh, read_shape, tessellation_for_feature, transfer_mesh,
                     write_inp, write_msh)
 
 __all__ = ["Cancelled", "Description", "describe", "element_quality", "FeatureModel", "FeMesh", "InputError", "Match", "Mesh",
-           "Params", "PreparedTarget", "Result", "ShapeStats", "TransferredMesh", "extract", "make_params", "param_table",
+           "Params", "PreparedTarget", "Result", "ShapeStats", "TimeLimitError", "TransferredMesh", "extract", "make_params", "param_table",
            "read_brep_string", "read_feature", "read_fe_mesh", "read_shape", "read_target", "transfer_mesh", "write_inp",
            "write_msh"]
 

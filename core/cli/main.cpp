@@ -6,7 +6,7 @@
 //       OUT_DIR/instance_NN.inp, .msh, .feature.json and OUT_DIR/result.json (with a "transfer"
 //       entry per match: node projection and element quality before and after)
 // Exit codes: 0 done (also when nothing is found), 2 usage error, 3 unreadable or invalid input,
-// 4 the output could not be written, 1 internal error.
+// 4 the output could not be written, 5 stopped by --time-limit, 1 internal error.
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
 #include "featureextract/transfer.h"
@@ -15,7 +15,10 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +26,24 @@
 #include <sstream>
 
 namespace {
+
+// Messages stay on one line whatever a file name holds: control characters are written escaped.
+std::string one_line(const std::string& s) {
+  std::string o;
+  for (const unsigned char c : s) {
+    if (c == '\n') o += "\\n";
+    else if (c == '\r') o += "\\r";
+    else if (c == '\t') o += "\\t";
+    else if (c < 0x20 || c == 0x7f) {
+      char b[8];
+      std::snprintf(b, sizeof(b), "\\x%02x", c);
+      o += b;
+    } else o += static_cast<char>(c);
+  }
+  return o;
+}
+
+void say(const std::string& msg) { std::cerr << "featureextract: " << one_line(msg) << "\n"; }
 
 std::string param_help() {
   std::ostringstream s;
@@ -32,7 +53,7 @@ std::string param_help() {
       << "      " << p.help << "\n";
   }
   s << "\nExit codes: 0 done (also when nothing is found), 2 usage error, 3 unreadable or invalid input,\n"
-       "4 output not writable, 1 internal error.\n";
+       "4 output not writable, 5 stopped by --time-limit, 1 internal error.\n";
   return s.str();
 }
 
@@ -43,7 +64,7 @@ struct Progress {
   bool operator()(const std::string& s, double f) {
     if (quiet) return true;
     if (s != stage || f >= last + 0.1 || (f >= 1.0 && last < 1.0)) {
-      std::cerr << "featureextract: " << s << " " << static_cast<int>(f * 100 + 0.5) << "%\n";
+      std::cerr << "featureextract: " << one_line(s) << " " << static_cast<int>(f * 100 + 0.5) << "%\n";
       stage = s;
       last = f;
     }
@@ -59,13 +80,13 @@ bool write_atomically(const std::string& path, const std::string& text) {
     out << text << "\n";
     out.close();
     if (!out) {
-      std::cerr << "featureextract: " << path << ": cannot write output\n";
+      say(path + ": cannot write output");
       std::remove(tmp.c_str());
       return false;
     }
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::cerr << "featureextract: " << path << ": cannot write output\n";
+    say(path + ": cannot write output");
     std::remove(tmp.c_str());
     return false;
   }
@@ -91,8 +112,9 @@ int main(int argc, char** argv) {
   auto* me = app.add_subcommand("mesh", "find the instances of a reference feature folder's geometry in TGT and place its FE "
                                         "mesh on each (OUT_DIR/instance_NN.inp/.msh/.feature.json, OUT_DIR/result.json)");
   std::string ref_path, tgt_path, out_path, config_path, feature_dir;
-  std::uint64_t seed = 0;
+  std::string seed_text;
   int threads = -1;
+  double time_limit = 0;
   bool quiet = false;
   double max_projection = fe::TransferOptions{}.max_projection;
   std::vector<std::string> sets;
@@ -100,13 +122,24 @@ int main(int argc, char** argv) {
   ex->add_option("--output,-o", out_path, "result JSON file (written atomically)")->required();
   me->add_option("--feature,-f", feature_dir, "reference feature folder: feature.json, geometry, FE mesh (.inp or .msh)")->required();
   me->add_option("--output,-o", out_path, "output folder (created)")->required();
+  // CLI11's PositiveNumber lets NaN through
+  const CLI::Validator finite_positive([](std::string& v) {
+    const double x = std::strtod(v.c_str(), nullptr);
+    return std::isfinite(x) && x > 0 ? std::string() : "must be a finite number > 0, got " + v;
+  }, "POSITIVE");
+  const CLI::Validator finite_non_negative([](std::string& v) {
+    const double x = std::strtod(v.c_str(), nullptr);
+    return std::isfinite(x) && x >= 0 ? std::string() : "must be a finite number >= 0, got " + v;
+  }, "SECONDS");
   me->add_option("--max-projection", max_projection, "largest move of a mapped node onto the target, fraction of the "
-                                                     "instance's diagonal (default 0.03)");
+                                                     "instance's diagonal (default 0.03)")->check(finite_positive);
   for (CLI::App* sub : {ex, me}) {
     sub->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
     sub->add_option("--config,-c", config_path, "JSON object of parameters (see below)");
-    sub->add_option("--seed", seed, "seed of sampling and RANSAC (default 1)");
-    sub->add_option("--threads", threads, "worker threads (default 0 = all cores)");
+    sub->add_option("--seed", seed_text, "seed of sampling and RANSAC, a whole number >= 0 (default 1)");
+    sub->add_option("--threads", threads, "worker threads (default 0 = all cores)")->check(CLI::Range(0, 1024));
+    sub->add_option("--time-limit", time_limit, "stop with exit code 5 after this many seconds, reading included (default 0 = "
+                                                "no limit; reading a CAD file is always bounded by 20 s + 10 s per MB)")->check(finite_non_negative);
     sub->add_option("--set", sets, "override one parameter, NAME=VALUE (repeatable)");
     sub->add_flag("--quiet,-q", quiet, "no progress on stderr");
     sub->footer(param_help());
@@ -119,34 +152,55 @@ int main(int argc, char** argv) {
     return 0;
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::cerr << "featureextract: " << e.what() << " (see featureextract extract --help)\n";
+    say(std::string(e.what()) + " (see featureextract extract --help)");
     return 2;
   }
 
   fe::Params params;
-  try {
-    if (!config_path.empty()) {
-      std::ifstream in(config_path);
-      if (!in) {
-        std::cerr << "featureextract: " << config_path << ": cannot open config file\n";
-        return 2;
-      }
-      std::stringstream ss;
-      ss << in.rdbuf();
-      params = fe::params_from_json(ss.str());
+  if (!config_path.empty()) {  // a config file is input: unreadable or not JSON is exit 3
+    std::ifstream in(config_path);
+    std::error_code ec;
+    if (std::filesystem::is_directory(config_path, ec) || !in) {
+      say(config_path + ": cannot open config file");
+      return 3;
     }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    try {
+      params = fe::params_from_json(ss.str());
+    } catch (const std::invalid_argument& e) {  // a value out of range or an unknown name: usage
+      say(config_path + ": " + e.what());
+      return std::string(e.what()).rfind("not valid JSON", 0) == 0 || std::string(e.what()).rfind("parameters must", 0) == 0 ? 3 : 2;
+    }
+  }
+  try {
     for (const std::string& kv : sets) {
       const auto eq = kv.find('=');
-      if (eq == std::string::npos) throw std::invalid_argument("--set expects NAME=VALUE, got '" + kv + "'");
+      if (eq == std::string::npos) throw std::invalid_argument("expects NAME=VALUE, got '" + kv + "'");
       params = fe::params_from_json("{\"" + kv.substr(0, eq) + "\": " + kv.substr(eq + 1) + "}", params);
     }
-    if (ex->get_option("--seed")->count() + me->get_option("--seed")->count() > 0) params.seed = seed;
-    if (threads >= 0) params.threads = threads;
-    params.validate();
   } catch (const std::invalid_argument& e) {
-    std::cerr << "featureextract: " << (config_path.empty() ? std::string("--set") : config_path) << ": " << e.what() << "\n";
+    say(std::string("--set: ") + e.what());
     return 2;
   }
+  if (!seed_text.empty()) {
+    errno = 0;
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(seed_text.c_str(), &end, 10);
+    if (seed_text.find_first_not_of("0123456789") != std::string::npos || errno == ERANGE || *end != 0) {
+      say("--seed: must be a whole number from 0 to 18446744073709551615, got " + seed_text);
+      return 2;
+    }
+    params.seed = v;
+  }
+  if (threads >= 0) params.threads = threads;
+  try {
+    params.validate();
+  } catch (const std::invalid_argument& e) {
+    say(e.what());
+    return 2;
+  }
+  const auto started = std::chrono::steady_clock::now();
 
   const bool mesh_mode = me->parsed();
   Progress progress;
@@ -160,28 +214,40 @@ int main(int argc, char** argv) {
       ref_path = feature.geometry_path;
     }
     fe::TessellationOptions to;
+    auto left = [&] { return time_limit - std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+    if (time_limit > 0) to.time_limit = std::max(0.01, left());
     const fe::TriangleMesh ref = fe::read_shape(ref_path, to);
+    if (time_limit > 0) to.time_limit = std::max(0.01, left());
     tgt = fe::read_shape(tgt_path, fe::tessellation_for_feature(ref.diagonal(), to));
+    if (time_limit > 0) {
+      if (left() <= 0) throw fe::TimeLimitExceeded("out of time after reading");
+      params.time_limit = left();
+    }
     for (const fe::TriangleMesh* m : {&ref, static_cast<const fe::TriangleMesh*>(&tgt)})
       if (m->dropped_degenerate > 0 && !m->from_brep() && !quiet)  // BRepMesh's own slivers are routine
-        std::cerr << "featureextract: " << m->source << ": warning: " << m->dropped_degenerate << " zero-area triangles ignored\n";
+        say(m->source + ": warning: " + std::to_string(m->dropped_degenerate) + " zero-area triangles ignored");
     result = fe::extract(ref, tgt, params, std::ref(progress));
   } catch (const fe::InputError& e) {
-    std::cerr << "featureextract: " << e.what() << "\n";
+    say(e.what());
     return 3;
+  } catch (const fe::TimeLimitExceeded& e) {
+    std::ostringstream m;
+    m << tgt_path << ": stopped after the time limit of " << time_limit << " s (--time-limit)";
+    say(m.str());
+    return 5;
   } catch (const std::exception& e) {
-    std::cerr << "featureextract: internal error: " << e.what() << "\n";
+    say(std::string("internal error: ") + e.what());
     return 1;
   }
   if (!quiet) {
-    for (const auto& w : result.warnings) std::cerr << "featureextract: warning: " << w << "\n";
-    std::cerr << "featureextract: " << result.matches.size() << " instance(s) found\n";
+    for (const auto& w : result.warnings) say("warning: " + w);
+    say(std::to_string(result.matches.size()) + " instance(s) found");
   }
   std::string text;
   try {
     text = fe::result_to_json(result);
   } catch (const std::exception& e) {
-    std::cerr << "featureextract: " << out_path << ": cannot encode the result: " << e.what() << "\n";
+    say(out_path + ": cannot encode the result: " + e.what());
     return 1;
   }
   if (!mesh_mode) return write_atomically(out_path, text) ? 0 : 4;
@@ -191,7 +257,7 @@ int main(int argc, char** argv) {
   std::error_code ec;
   fs::create_directories(out_path, ec);
   if (ec || !fs::is_directory(out_path)) {
-    std::cerr << "featureextract: " << out_path << ": cannot create the output folder" << (ec ? ": " + ec.message() : "") << "\n";
+    say(out_path + ": cannot create the output folder" + (ec ? ": " + ec.message() : ""));
     return 4;
   }
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(text);
@@ -216,7 +282,7 @@ int main(int argc, char** argv) {
             {"quality_before", quality(t.before_summary)}, {"quality_after", quality(t.after_summary)},
             {"invalid_elements", t.invalid_elements}, {"reversed", t.reversed}};
     } catch (const std::runtime_error& e) {  // files that cannot be written
-      std::cerr << "featureextract: " << stem << ": " << e.what() << "\n";
+      say(stem + ": " + e.what());
       return 4;
     } catch (const std::exception& e) {  // an instance whose transform cannot carry the mesh
       tj = {{"error", e.what()}};
@@ -226,6 +292,6 @@ int main(int argc, char** argv) {
   progress("mesh transfer", 1.0);
   const std::string result_path = (fs::path(out_path) / "result.json").string();
   if (!write_atomically(result_path, j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace))) return 4;
-  if (!quiet) std::cerr << "featureextract: " << result.matches.size() << " mesh(es) written to " << out_path << "\n";
+  if (!quiet) say(std::to_string(result.matches.size()) + " mesh(es) written to " + out_path);
   return 0;
 }

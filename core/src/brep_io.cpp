@@ -2,6 +2,8 @@
 // Faces are numbered 1..n in TopExp::MapShapes(shape, TopAbs_FACE) order, which is FreeCAD's FaceN.
 #include "featureextract/io.h"
 
+#include "isolate.h"
+
 #include <BRepBndLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
 #include <BRepTools.hxx>
@@ -24,6 +26,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <mutex>
 #include <sstream>
 
@@ -81,7 +84,9 @@ TriangleMesh tessellate(const TopoDS_Shape& shape, const TessellationOptions& o,
   // a deflection far below the shape size would make BRepMesh run for hours: bound the triangle count
   defl = std::max(defl, 1e-5 * diag);
   if (o.absolute_deflection > 0) defl = std::min(defl, o.absolute_deflection);
-  BRepMesh_IncrementalMesh mesher(shape, defl, Standard_False, o.angular_deflection, Standard_True);
+  // not in parallel: this runs in a forked child, where a thread pool inherited from the parent
+  // (FreeCAD's own meshing) has no threads behind it
+  BRepMesh_IncrementalMesh mesher(shape, defl, Standard_False, o.angular_deflection, Standard_False);
   if (!mesher.IsDone()) fail(name, "OpenCASCADE could not tessellate the shape");
 
   std::vector<double> v;
@@ -122,37 +127,52 @@ TriangleMesh tessellate(const TopoDS_Shape& shape, const TessellationOptions& o,
   return m;
 }
 
+// The child's time limit in seconds (0 = none) for an input of `bytes`.
+double time_limit(const std::string& name, const TessellationOptions& o, double bytes) {
+  if (!std::isfinite(o.time_limit)) fail(name, "the reading time limit must be finite");
+  return o.time_limit < 0 ? 20.0 + 10.0 * bytes / 1e6 : o.time_limit;
+}
+
 }  // namespace
 
 TriangleMesh read_brep_file(const std::string& path, const std::string& ext, const TessellationOptions& o) {
-  silence_occt();
-  try {
-    return tessellate(read_occt(path, ext), o, path);
-  } catch (const InputError&) {
-    throw;
-  } catch (const Standard_Failure& e) {
-    fail(path, std::string("OpenCASCADE failed: ") + (e.GetMessageString() ? e.GetMessageString() : "unknown error"));
-  } catch (const std::exception& e) {
-    fail(path, e.what());
-  }
+  std::error_code ec;
+  const double limit = time_limit(path, o, static_cast<double>(std::filesystem::file_size(path, ec)));
+  return read_isolated(path, [&] {
+    silence_occt();
+    try {
+      return tessellate(read_occt(path, ext), o, path);
+    } catch (const InputError&) {
+      throw;
+    } catch (const Standard_Failure& e) {
+      fail(path, std::string("OpenCASCADE failed: ") + (e.GetMessageString() ? e.GetMessageString() : "unknown error"));
+    } catch (const std::exception& e) {
+      fail(path, e.what());
+    }
+  }, limit);
 }
 
 TriangleMesh read_brep_string(const std::string& brep, const TessellationOptions& o, const std::string& name) {
-  silence_occt();
-  try {
-    std::istringstream in(brep);
-    TopoDS_Shape shape;
-    BRep_Builder b;
-    BRepTools::Read(shape, in, b);
-    if (shape.IsNull()) fail(name, "not a readable BREP string");
-    TriangleMesh m = tessellate(shape, o, name);
-    validate_mesh(m);
-    return m;
-  } catch (const InputError&) {
-    throw;
-  } catch (const Standard_Failure& e) {
-    fail(name, std::string("OpenCASCADE failed: ") + (e.GetMessageString() ? e.GetMessageString() : "unknown error"));
-  }
+  const double limit = time_limit(name, o, static_cast<double>(brep.size()));
+  TriangleMesh m = read_isolated(name, [&] {
+    silence_occt();
+    try {
+      std::istringstream in(brep);
+      TopoDS_Shape shape;
+      BRep_Builder b;
+      BRepTools::Read(shape, in, b);
+      if (shape.IsNull()) fail(name, "not a readable BREP string");
+      return tessellate(shape, o, name);
+    } catch (const InputError&) {
+      throw;
+    } catch (const Standard_Failure& e) {
+      fail(name, std::string("OpenCASCADE failed: ") + (e.GetMessageString() ? e.GetMessageString() : "unknown error"));
+    } catch (const std::exception& e) {
+      fail(name, e.what());
+    }
+  }, limit);
+  validate_mesh(m);
+  return m;
 }
 
 }  // namespace fe

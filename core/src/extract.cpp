@@ -134,6 +134,16 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   const double expected = area / (d->dense_h * d->dense_h);
   if (expected > static_cast<double>(p.max_dense_points)) {
     const double f = std::sqrt(expected / static_cast<double>(p.max_dense_points));
+    if (f > 10) {
+      // Samples 10x coarser than the feature needs cannot show it: refuse instead of working long for
+      // nothing (a 10 mm boss on a 4 m part, or coordinates corrupted along one axis).
+      std::ostringstream m;
+      m.precision(3);
+      m << name << ": the surface is too large for a feature of this size (area " << area << ", " << area / (L * L)
+        << " times the feature's squared size): the samples would be " << f
+        << "x coarser than the feature needs; search a region of the part, or raise max_dense_points";
+      throw InputError(m.str());
+    }
     d->dense_h *= f;
     d->sparse_h = std::max(d->sparse_h, 2.5 * d->dense_h);
     std::ostringstream w;
@@ -1159,6 +1169,10 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Params
   return r;
 }
 
+template <class TargetFor>
+Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
+                     TargetFor target_for);
+
 // The whole search for one reference: cut faces, the reference and (unless it is its own mirror
 // image) its mirror image matched against the target's description from `target_for(L, params)`,
 // with the ridge-and-rut fallback around both.
@@ -1166,13 +1180,38 @@ template <class TargetFor>
 Result search(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
               TargetFor target_for) {
   params_in.validate();
+  // Params::time_limit: every progress report checks the clock, and a run past it stops there (the
+  // stages report often enough: per SHOT radius, per pair chunk, per RANSAC iteration batch).
+  const auto start = std::chrono::steady_clock::now();
+  bool out_of_time = false;
+  const ProgressFn checked = params_in.time_limit <= 0 ? progress : ProgressFn([&](const std::string& stage, double f) {
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > params_in.time_limit) {
+      out_of_time = true;
+      return false;
+    }
+    return !progress || progress(stage, f);
+  });
+  try {
+    return search_within(reference_in, target, params_in, checked, target_for);
+  } catch (const Cancelled&) {
+    if (!out_of_time) throw;
+    std::ostringstream m;
+    m << (target.source.empty() ? std::string("target") : target.source) << ": stopped after the time limit of "
+      << params_in.time_limit << " s (time_limit)";
+    throw TimeLimitExceeded(m.str());
+  }
+}
+
+template <class TargetFor>
+Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
+                     TargetFor target_for) {
   const SearchedReference sr = searched_reference(reference_in, params_in);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
   Result res = with_fallback(params_in, [&](const Params& params) {
     const double L = reference.diagonal();
     const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
-    const std::shared_ptr<const ShapeDescription> t = target_for(L, params);
+    const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
     Result out = match(r, *t, target, params, progress);
     if (params.mirror) {
       const auto& R = r.impl();
@@ -1204,12 +1243,12 @@ Result search(const TriangleMesh& reference_in, const TriangleMesh& target, cons
 PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
 
 Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params_in, const ProgressFn& progress) {
-  return search(reference, mesh_, params_in, progress, [&](double L, const Params& params) {
+  return search(reference, mesh_, params_in, progress, [&](double L, const Params& params, const ProgressFn& checked) {
     const std::string key = description_key(L, params);
     std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
     for (const auto& c : cache_)
       if (c.first == key) return c.second;
-    auto t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, progress));
+    auto t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, checked));
     cache_.emplace_back(key, t);
     ++built_;
     if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
@@ -1218,9 +1257,9 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
 }
 
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
-  return search(reference, target, params_in, progress, [&](double L, const Params& params) {
+  return search(reference, target, params_in, progress, [&](double L, const Params& params, const ProgressFn& checked) {
     // one description per pass (the fallback describes again with its own key points)
-    return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
+    return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, checked));
   });
 }
 

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <unordered_map>
@@ -153,6 +154,22 @@ TriangleMesh read_obj(const std::string& path) {
         idx.push_back(static_cast<int>(i));
       }
       if (idx.size() < 3) fail(path, "line " + std::to_string(lineno) + ": face with fewer than 3 vertices");
+      if (idx.size() > 4) {
+        // A polygon is cut into a fan from its first vertex. That is right only for a planar convex
+        // polygon: there the fan's triangles add up to the polygon's vector area. Otherwise the fan
+        // covers surface the model does not have (a face line listing vertices from all over the mesh).
+        auto p = [&](int i) { return Eigen::Vector3d(b.v[3 * static_cast<std::size_t>(i)], b.v[3 * static_cast<std::size_t>(i) + 1], b.v[3 * static_cast<std::size_t>(i) + 2]); };
+        Eigen::Vector3d vec = Eigen::Vector3d::Zero();
+        double sum = 0;
+        for (std::size_t k = 1; k + 1 < idx.size(); ++k) {
+          const Eigen::Vector3d c = (p(idx[k]) - p(idx[0])).cross(p(idx[k + 1]) - p(idx[0]));
+          vec += c;
+          sum += c.norm();
+        }
+        if (vec.norm() < 0.98 * sum)
+          fail(path, "line " + std::to_string(lineno) + ": a " + std::to_string(idx.size()) +
+                         "-vertex face that is not planar and convex; triangulate it when exporting");
+      }
       for (std::size_t k = 1; k + 1 < idx.size(); ++k) b.tri(idx[0], idx[k], idx[k + 1]);
     } else if (tag.size() == 1 || tag == "vn" || tag == "vt" || tag == "vp" || tag == "usemtl" || tag == "mtllib" ||
                tag[0] == '#') {
@@ -348,6 +365,45 @@ std::size_t orient_consistently(TriangleMesh& m) {
   return flipped;
 }
 
+namespace {
+
+// Corrupt coordinates (one float turned into 1e12, integer bit patterns read as coordinates) make a
+// bounding box far larger than the mesh's own detail; every stage's work grows with it. A real part
+// spans at most some 10^4 of its median edge (a 5 m body meshed at 0.5 mm): past 10^6 the file is
+// refused, naming the vertex farthest from the mesh's median point.
+void check_extent(const TriangleMesh& m, const std::string& name) {
+  const double diag = m.diagonal();
+  std::vector<double> edges;
+  const Eigen::Index step = std::max<Eigen::Index>(1, m.triangles.rows() / 20000);
+  for (Eigen::Index t = 0; t < m.triangles.rows(); t += step)
+    for (int k = 0; k < 3; ++k) {
+      const double e = (m.vertices.row(m.triangles(t, k)) - m.vertices.row(m.triangles(t, (k + 1) % 3))).norm();
+      if (e > 0) edges.push_back(e);
+    }
+  if (edges.empty()) return;
+  std::nth_element(edges.begin(), edges.begin() + static_cast<long>(edges.size() / 2), edges.end());
+  const double median = edges[edges.size() / 2];
+  if (!(diag > 1e6 * median)) return;
+  Eigen::Vector3d mid;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> c;
+    c.reserve(static_cast<std::size_t>(m.vertices.rows()));
+    for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) c.push_back(m.vertices(i, a));
+    std::nth_element(c.begin(), c.begin() + static_cast<long>(c.size() / 2), c.end());
+    mid(a) = c[c.size() / 2];
+  }
+  Eigen::Index far = 0;
+  (m.vertices.rowwise() - mid.transpose()).rowwise().squaredNorm().maxCoeff(&far);
+  std::ostringstream s;
+  s.precision(4);
+  s << "coordinates look corrupt: the bounding box (diagonal " << diag << ") is over a million times the median edge ("
+    << median << "); vertex " << far + 1 << " lies at (" << m.vertices(far, 0) << ", " << m.vertices(far, 1) << ", "
+    << m.vertices(far, 2) << ")";
+  fail(name, s.str());
+}
+
+}  // namespace
+
 void validate_mesh(TriangleMesh& m) {
   const std::string& name = m.source.empty() ? std::string("<mesh>") : m.source;
   if (m.vertices.rows() == 0 || m.triangles.rows() == 0) fail(name, "no triangles");
@@ -364,14 +420,16 @@ void validate_mesh(TriangleMesh& m) {
     if (!m.vertices.row(i).allFinite())
       fail(name, "non-finite (NaN or infinite) coordinate at vertex " + std::to_string(i + 1));
   const int nv = static_cast<int>(m.vertices.rows());
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (m.triangles(t, k) < 0 || m.triangles(t, k) >= nv)
+        fail(name, "triangle " + std::to_string(t + 1) + " refers to missing vertex " + std::to_string(m.triangles(t, k)));
+  check_extent(m, name);
   std::vector<Eigen::Index> keep;
   keep.reserve(static_cast<std::size_t>(m.triangles.rows()));
   const double diag = m.diagonal();
   const double min_area = std::pow(diag * 1e-9, 2);
   for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
-    for (int k = 0; k < 3; ++k)
-      if (m.triangles(t, k) < 0 || m.triangles(t, k) >= nv)
-        fail(name, "triangle " + std::to_string(t + 1) + " refers to missing vertex " + std::to_string(m.triangles(t, k)));
     const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)),
                           c = m.vertices.row(m.triangles(t, 2));
     if (0.5 * (b - a).cross(c - a).norm() > min_area) keep.push_back(t);
@@ -397,6 +455,10 @@ TriangleMesh read_brep_file(const std::string& path, const std::string& ext, con
 
 TriangleMesh read_shape(const std::string& path, const TessellationOptions& options) {
   const std::string ext = file_extension(path);
+  {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) fail(path, "is a folder, not a file");
+  }
   TriangleMesh m;
   if (ext == "stl" || ext == "obj" || ext == "ply") {
     m = read_mesh_file(path, ext);

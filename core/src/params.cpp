@@ -27,6 +27,7 @@ const std::vector<Entry>& entries() {
   static const std::vector<Entry> e = {
       {"seed", &Params::seed, "", "seed of sampling and RANSAC; same input and seed give the same output", 0, 1.8e19},
       {"threads", &Params::threads, "count", "worker threads for SHOT descriptors; 0 = all cores", 0, 1024},
+      {"time_limit", &Params::time_limit, "s", "an extraction that takes longer stops with an error (CLI exit 5); 0 = no limit", 0, 1e7},
       {"dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
       {"sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
       {"max_dense_points", &Params::max_dense_points, "count", "cap on dense samples per shape; spacing grows beyond it", 1000, 5e7},

@@ -1,10 +1,12 @@
 #include "shot.h"
 
+#include <pcl/console/print.h>
 #include <pcl/features/shot_omp.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
 
 #include <cmath>
+#include <mutex>
 #include <unordered_map>
 
 namespace fe {
@@ -53,6 +55,10 @@ ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points
   out.valid.setConstant(K, R, false);
   out.lrf.setZero(K, 9 * R);
   if (K == 0) return out;
+  // PCL reports each key point whose local frame is degenerate on stderr; such points are marked
+  // invalid here (out.valid) and counted, so its per-point lines only bury the user's messages.
+  static std::once_flag quiet_pcl;
+  std::call_once(quiet_pcl, [] { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); });
   auto key_cloud = cloud_of(keys, key_normals);
   // Support levels: level k has spacing support_spacing * 2^k; each is built once, with its kd-tree
   // (SHOT reuses a tree whose input is the same surface pointer).

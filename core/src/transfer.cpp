@@ -63,10 +63,18 @@ FeatureModel read_feature(const std::string& dir) {
   if (!j.is_object()) fail(spec_path, "must hold a JSON object");
   for (const char* key : {"geometry", "mesh"})
     if (!j.contains(key) || !j[key].is_string()) fail(spec_path, std::string("needs \"") + key + "\": a file name in the folder");
+  if (j.contains("name") && !j["name"].is_string()) fail(spec_path, "\"name\" must be a string");
   f.name = j.value("name", fs::path(dir).filename().string());
   f.geometry_path = (fs::path(dir) / j["geometry"].get<std::string>()).string();
   f.mesh_path = (fs::path(dir) / j["mesh"].get<std::string>()).string();
-  if (!fs::exists(f.geometry_path)) fail(spec_path, "geometry file " + f.geometry_path + " does not exist");
+  for (const std::string* file : {&f.geometry_path, &f.mesh_path}) {
+    std::error_code ec;
+    const bool there = fs::is_regular_file(*file, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory)
+      fail(spec_path, "file " + fs::path(*file).filename().string().substr(0, 60) + (fs::path(*file).filename().string().size() > 60 ? "..." : "") +
+                          " cannot be opened: " + ec.message());
+    if (!there) fail(spec_path, "file " + *file + " does not exist");
+  }
   f.mesh = read_fe_mesh(f.mesh_path);
   if (f.mesh.num_elements() == 0) fail(f.mesh_path, "mesh has no elements");
   return f;

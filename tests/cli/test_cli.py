@@ -8,6 +8,8 @@ import tempfile
 import unittest
 
 EXE, MODELS = sys.argv[1], sys.argv[2]
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BAD = os.path.join(os.path.dirname(ROOT), "shared", "data", "bad-input")  # files that crashed or hung earlier builds
 REF = os.path.join(MODELS, "rib_reference.step")
 TGT = os.path.join(MODELS, "ribs_bosses.step")
 
@@ -76,6 +78,68 @@ class Cli(unittest.TestCase):
         r = run("extract", "-r", TGT, "-t", REF, "-o", self.out)
         self.assert_input_error(r, TGT)
         self.assertIn("larger than the target", r.stderr)
+
+    def test_bad_input_files_never_crash_or_hang(self):
+        """../shared/data/bad-input (see its README): each crashed (SIGSEGV in OpenCASCADE), hung or ran
+        for a minute. Each must now end within the reading bound with exit 3 and one line naming it."""
+        small = os.path.join(BAD, "small_reference.stl")
+        for name, role in [("step_unknown_entity_FOO.step", "reference"), ("step_dangling_ref.step", "reference"),
+                           ("brep_segv.brep", "target"), ("stl_bin_one_coord_1e12.stl", "target"),
+                           ("brep_edge_token_1e.brep", "target"), ("obj_polygon_199_hang.obj", "target"),
+                           ("ply_bin_type_uint_slow_48s.ply", "target"), ("brep_truncated_line438_hang.brep", "target")]:
+            with self.subTest(name):
+                bad = os.path.join(BAD, name)
+                ref, tgt = (bad, small) if role == "reference" else (small, bad)
+                r = subprocess.run([EXE, "extract", "-q", "-r", ref, "-t", tgt, "-o", self.out], capture_output=True,
+                                   text=True, timeout=120)  # a hang guard, not a speed goal
+                self.assert_input_error(r, bad)
+        rib = os.path.join(ROOT, "Resources", "features", "rib", "geometry.step")
+        for name, why in [("feature_name_number", '"name" must be a string'), ("feature_geometry_name_300chars", "File name too long")]:
+            with self.subTest(name):
+                out_dir = os.path.join(self.dir, name)
+                r = run("mesh", "-q", "--feature", os.path.join(BAD, name), "-t", rib, "-o", out_dir)
+                self.assertEqual(r.returncode, 3, r.stderr)
+                self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+                self.assertIn(os.path.join(BAD, name, "feature.json"), r.stderr)
+                self.assertIn(why, r.stderr)
+
+    def test_every_option_is_checked(self):
+        base = ["extract", "-q", "-r", REF, "-t", TGT, "-o", self.out]
+        for opt, value in [("--threads", "-5"), ("--seed", "-1"), ("--seed", "1e3"), ("--time-limit", "nan"), ("--time-limit", "-1")]:
+            with self.subTest(opt + " " + value):
+                r = run(*base, opt, value)
+                self.assertEqual(r.returncode, 2, r.stderr)
+                self.assertIn(opt, r.stderr)
+                self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        for value in ["nan", "inf", "-1", "0"]:
+            with self.subTest("--max-projection " + value):
+                r = run("mesh", "-q", "--feature", os.path.join(ROOT, "Resources", "features", "rib"), "-t", TGT,
+                        "-o", os.path.join(self.dir, "m"), "--max-projection", value)
+                self.assertEqual(r.returncode, 2, r.stderr)
+                self.assertIn("--max-projection", r.stderr)
+        self.assertFalse(os.path.exists(self.out))
+
+    def test_messages_stay_on_one_line(self):
+        odd = os.path.join(self.dir, "two\nlines.step")
+        with open(odd, "wb") as f:
+            f.write(b"ISO-10303-21;\nnot really\n")
+        r = run("extract", "-q", "-r", REF, "-t", odd, "-o", self.out)
+        self.assertEqual(r.returncode, 3, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("two\\nlines.step", r.stderr)
+        r = run("extract", "-q", "-r", REF, "-t", self.dir, "-o", self.out)  # a folder
+        self.assert_input_error(r, self.dir)
+        self.assertIn("is a folder", r.stderr)
+        r = run("extract", "-q", "-r", REF, "-t", TGT, "-o", self.out, "--config", os.path.join(self.dir, "none.json"))
+        self.assertEqual(r.returncode, 3, r.stderr)  # a config file is input
+        self.assertIn("none.json", r.stderr)
+
+    def test_time_limit_stops_a_run_with_exit_5(self):
+        r = run("extract", "-q", "-r", REF, "-t", TGT, "-o", self.out, "--time-limit", "0.3")
+        self.assertEqual(r.returncode, 5, r.stderr)
+        self.assertIn("--time-limit", r.stderr)
+        self.assertIn(TGT, r.stderr)
+        self.assertFalse(os.path.exists(self.out))
 
     def test_extract_writes_the_json_contract(self):
         r = run("extract", "--reference", REF, "--target", TGT, "--output", self.out, "--seed", "3")

@@ -189,6 +189,11 @@ class App_(unittest.TestCase):
             api.extract(self.part, os.path.join(MODELS, "flat_reference.step"))
         with self.assertRaises(ValueError):
             api.extract(self.part, os.path.join(MODELS, "rib_reference.step"), no_such_parameter=3)
+        # STEP files that crash OpenCASCADE (SIGSEGV): FreeCAD must survive them with the user's work
+        bad = os.path.join(os.path.dirname(os.path.dirname(os.environ["FE_WB"])), "shared", "data", "bad-input")
+        for name in ["step_unknown_entity_FOO.step", "step_dangling_ref.step", "brep_segv.brep"]:
+            with self.assertRaisesRegex(ValueError, name):
+                api.extract(self.part, os.path.join(bad, name))
         self.assertEqual(sorted(o.Name for o in self.doc.Objects), sorted(before))
 
 

@@ -84,6 +84,34 @@ def test_bad_file_raises_input_error_naming_it(tmp_path):
         fx.read_shape(str(tmp_path / "missing.step"))
 
 
+BAD = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "..", "shared", "data", "bad-input")
+
+
+@pytest.mark.parametrize("name", ["step_unknown_entity_FOO.step", "step_dangling_ref.step", "brep_segv.brep",
+                                  "brep_truncated_line438_hang.brep", "stl_bin_one_coord_1e12.stl"])
+def test_files_that_crash_the_cad_reader_raise_input_error(name):
+    """These killed the interpreter (SIGSEGV in OpenCASCADE) or hung: inside FreeCAD, data loss."""
+    path = os.path.join(BAD, name)
+    t0 = time.monotonic()
+    with pytest.raises(fx.InputError, match=name):
+        fx.read_shape(path)
+    assert time.monotonic() - t0 < 60  # a hang guard (the reading bound is 20 s + 10 s per MB), not a speed goal
+    assert fx.read_shape(os.path.join(BAD, "small_reference.stl")).triangles.shape[0] > 0  # still alive and working
+
+
+def test_a_hanging_cad_file_is_stopped_at_the_time_limit():
+    t0 = time.monotonic()
+    with pytest.raises(fx.InputError, match="longer than 2 s"):
+        fx.read_shape(os.path.join(BAD, "brep_edge_token_1e.brep"), time_limit=2)
+    assert time.monotonic() - t0 < 30
+
+
+def test_time_limit_raises_timeout(ref, tgt):
+    with pytest.raises(fx.TimeLimitError, match="time limit"):
+        fx.extract(ref, tgt, fx.make_params(time_limit=0.2))
+    assert issubclass(fx.TimeLimitError, TimeoutError)
+
+
 def test_extract_returns_numpy_results(ref, tgt):
     r = fx.extract(ref, tgt, seed=1)
     assert len(r.matches) == 5

@@ -15,6 +15,10 @@ struct TessellationOptions {
   double absolute_deflection = 0.0;
   /// Angular deflection in radians.
   double angular_deflection = 0.25;
+  /// STEP, IGES and BREP are read and tessellated in a child process, which is stopped after this
+  /// many seconds: a corrupt file can neither crash the caller nor hang it. < 0 (default): 20 s plus
+  /// 10 s per MB of input, several times what a sound file takes; 0: no limit.
+  double time_limit = -1.0;
 };
 
 /// Tessellation options for a target searched for a feature of size L (its bounding-box diagonal):

@@ -39,6 +39,11 @@ struct Cancelled : std::runtime_error {
   Cancelled() : std::runtime_error("cancelled") {}
 };
 
+/// Thrown by extract() when the run took longer than Params::time_limit. what(): one line.
+struct TimeLimitExceeded : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 /// Points sampled on a mesh, with oriented normals (paper step 1, "dense" and "sparse" sets).
 struct Samples {
   Points points;              ///< N x 3

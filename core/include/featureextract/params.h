@@ -13,6 +13,7 @@ struct Params {
   // --- reproducibility and resources
   std::uint64_t seed = 1;        ///< seed of sampling and RANSAC; same input + seed = same output
   int threads = 0;               ///< worker threads for SHOT; 0 = all cores
+  double time_limit = 0;         ///< seconds; a longer extraction stops with TimeLimitExceeded; 0 = no limit
 
   // --- step 1: sampling (x L)
   double dense_spacing = 0.014;  ///< spacing of the dense samples (support of descriptors, validation)
