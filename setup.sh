@@ -14,12 +14,16 @@ PACKAGES=(
   libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
   python3 python3-numpy python3-pytest pybind11-dev python3-pybind11
   freecad xvfb xauth
+  clang libclang-rt-14-dev   # libFuzzer and the sanitizers: the fuzzing build (fuzz/, issue 10)
   occt-misc   # real parts for bench/user_cases.py (Top.brep)
 )
 [ -n "${FE_SKIP_APT:-}" ] || tools/install_packages.sh "${PACKAGES[@]}"
 
 cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3 >/dev/null
 cmake --build "$BUILD" -j2
+# the fuzz targets (clang, libFuzzer, ASan + UBSan over the readers), run by ctest's fuzz_readers
+cmake -S fuzz -B "$BUILD/fuzz" -DCMAKE_CXX_COMPILER=clang++ >/dev/null
+cmake --build "$BUILD/fuzz" -j2
 
 "$BUILD/fe_make_models" "$BUILD/models"
 

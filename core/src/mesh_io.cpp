@@ -45,6 +45,25 @@ struct Builder {
     v.push_back(y);
     v.push_back(z);
   }
+  // A polygon is cut into a fan from its first vertex. That is right only for a planar convex polygon:
+  // there the fan's triangles add up to the polygon's vector area. Otherwise the fan covers surface
+  // the model does not have (a face listing vertices from all over the mesh): refused, from 5 corners
+  // on (quads are fanned as they come).
+  void polygon(const std::vector<int>& idx, const std::string& path, const std::string& where) {
+    if (idx.size() > 4) {
+      auto p = [&](int i) { return Eigen::Vector3d(v[3 * static_cast<std::size_t>(i)], v[3 * static_cast<std::size_t>(i) + 1], v[3 * static_cast<std::size_t>(i) + 2]); };
+      Eigen::Vector3d vec = Eigen::Vector3d::Zero();
+      double sum = 0;
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k) {
+        const Eigen::Vector3d c = (p(idx[k]) - p(idx[0])).cross(p(idx[k + 1]) - p(idx[0]));
+        vec += c;
+        sum += c.norm();
+      }
+      if (!(vec.norm() >= 0.98 * sum))
+        fail(path, where + ": a " + std::to_string(idx.size()) + "-vertex face that is not planar and convex; triangulate it when exporting");
+    }
+    for (std::size_t k = 1; k + 1 < idx.size(); ++k) tri(idx[0], idx[k], idx[k + 1]);
+  }
   void tri(int a, int b, int c) {
     t.push_back(a);
     t.push_back(b);
@@ -154,23 +173,7 @@ TriangleMesh read_obj(const std::string& path) {
         idx.push_back(static_cast<int>(i));
       }
       if (idx.size() < 3) fail(path, "line " + std::to_string(lineno) + ": face with fewer than 3 vertices");
-      if (idx.size() > 4) {
-        // A polygon is cut into a fan from its first vertex. That is right only for a planar convex
-        // polygon: there the fan's triangles add up to the polygon's vector area. Otherwise the fan
-        // covers surface the model does not have (a face line listing vertices from all over the mesh).
-        auto p = [&](int i) { return Eigen::Vector3d(b.v[3 * static_cast<std::size_t>(i)], b.v[3 * static_cast<std::size_t>(i) + 1], b.v[3 * static_cast<std::size_t>(i) + 2]); };
-        Eigen::Vector3d vec = Eigen::Vector3d::Zero();
-        double sum = 0;
-        for (std::size_t k = 1; k + 1 < idx.size(); ++k) {
-          const Eigen::Vector3d c = (p(idx[k]) - p(idx[0])).cross(p(idx[k + 1]) - p(idx[0]));
-          vec += c;
-          sum += c.norm();
-        }
-        if (vec.norm() < 0.98 * sum)
-          fail(path, "line " + std::to_string(lineno) + ": a " + std::to_string(idx.size()) +
-                         "-vertex face that is not planar and convex; triangulate it when exporting");
-      }
-      for (std::size_t k = 1; k + 1 < idx.size(); ++k) b.tri(idx[0], idx[k], idx[k + 1]);
+      b.polygon(idx, path, "line " + std::to_string(lineno));
     } else if (tag.size() == 1 || tag == "vn" || tag == "vt" || tag == "vp" || tag == "usemtl" || tag == "mtllib" ||
                tag[0] == '#') {
       continue;
@@ -262,14 +265,18 @@ TriangleMesh read_ply(const std::string& path) {
       for (const Prop& p : e.props) {
         if (p.list) {
           const double n = read_num(p.count_type);
-          if (n < 0 || n > 1000) fail(path, "PLY list of " + std::to_string(n) + " entries");
+          if (!(n >= 0 && n <= 1000) || n != std::floor(n)) fail(path, "PLY list of " + std::to_string(n) + " entries");
+          const bool face = e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
           std::vector<int> idx;
-          for (int k = 0; k < static_cast<int>(n); ++k) idx.push_back(static_cast<int>(read_num(p.type)));
-          if (e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index")) {
-            for (int k : idx)
-              if (k < 0 || static_cast<std::size_t>(k) >= nverts) fail(path, "PLY face index " + std::to_string(k) + " out of range");
-            for (std::size_t k = 1; k + 1 < idx.size(); ++k) b.tri(idx[0], idx[k], idx[k + 1]);
+          for (int k = 0; k < static_cast<int>(n); ++k) {
+            const double x = read_num(p.type);
+            if (!face) continue;
+            // range-checked as a double: casting an out-of-range value to int is undefined
+            if (!(x >= 0 && x < static_cast<double>(nverts)) || x != std::floor(x))
+              fail(path, "PLY face " + std::to_string(i + 1) + ": vertex index " + std::to_string(x) + " out of range");
+            idx.push_back(static_cast<int>(x));
           }
+          if (face) b.polygon(idx, path, "PLY face " + std::to_string(i + 1));
         } else {
           const double x = read_num(p.type);
           if (e.name == "vertex") {
