@@ -569,6 +569,19 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
     Json truth = Json::array();
     for (int i = 0; i < 4; ++i) truth.push_back(instance(s, faces_in_box(s, ears[i]), ears[i], names[i]));
     save("ftc10_ear_reference", faces_compound(s, faces_in_box(s, ears[0])));
+    {
+      // the same ear cut out with a box, as a user (and the paper) cuts a reference: the ear's faces'
+      // bounding box grown by 20 % of its diagonal, so it takes some of the housing around the ear
+      // too, which is not the same around every ear
+      Bnd_Box eb;
+      BRepBndLib::AddOptimal(faces_compound(s, faces_in_box(s, ears[0])), eb, false, false);
+      double x0, y0, z0, x1, y1, z1;
+      eb.Get(x0, y0, z0, x1, y1, z1);
+      const double m = 0.2 * std::sqrt((x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0) + (z1 - z0) * (z1 - z0));
+      BRepAlgoAPI_Common common(s, BRepPrimAPI_MakeBox(gp_Pnt(x0 - m, y0 - m, z0 - m), gp_Pnt(x1 + m, y1 + m, z1 + m)).Shape());
+      if (!common.IsDone()) die("box cut of the FTC-10 ear failed");
+      BRepTools::Write(common.Shape(), (dir + "/ftc10_ear_boxcut_reference.brep").c_str());
+    }
     save("ftc10", s);
     add("ftc10", "real part NIST FTC-10 (214 faces): its 4 corner ears, reference cut from one of them", "ftc10_ear_reference",
         "ftc10", truth, "real");

@@ -480,10 +480,51 @@ std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n) {
   return r;
 }
 
+// The part of a box-cut reference that is feature (issue 9): a user's box takes some of the part
+// around the feature too, and that context need not be the same around every instance (FTC-10's
+// ears: 4 of 4 found with a tight box, 2 of 4 with a box 20 % larger). Samples within `margin` of
+// the extent of a cut side of the box are context: hypotheses are judged, refined and validated on
+// the rest (the core). Not set: everything is feature (picked faces, an open STL region).
+struct FeatureCore {
+  bool set = false;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(-INFINITY), hi = Eigen::Vector3d::Constant(INFINITY);
+  bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
+};
+constexpr double kContextMargin = 0.2;
+
+FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut) {
+  FeatureCore c;
+  if (cut.triangles == 0) return c;
+  const Eigen::Vector3d lo = reference.vertices.colwise().minCoeff(), hi = reference.vertices.colwise().maxCoeff();
+  const double tol = 2e-3 * (hi - lo).norm();
+  c.lo = lo;
+  c.hi = hi;
+  for (Eigen::Index t = 0; t < reference.triangles.rows(); ++t) {
+    if (!cut.cut_triangle[static_cast<std::size_t>(t)]) continue;
+    const Eigen::Vector3d g = (reference.vertices.row(reference.triangles(t, 0)) + reference.vertices.row(reference.triangles(t, 1)) +
+                               reference.vertices.row(reference.triangles(t, 2))).transpose() / 3.0;
+    for (int a = 0; a < 3; ++a) {
+      const double m = kContextMargin * (hi(a) - lo(a));
+      if (std::abs(g(a) - lo(a)) <= tol) c.lo(a) = std::max(c.lo(a), lo(a) + m);
+      if (std::abs(g(a) - hi(a)) <= tol) c.hi(a) = std::min(c.hi(a), hi(a) - m);
+    }
+  }
+  c.set = true;
+  return c;
+}
+
 }  // namespace
+
+Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, const TriangleMesh& tmesh, const Params& p,
+                  const ProgressFn& progress, const FeatureCore& core);
 
 Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const TriangleMesh& tmesh, const Params& p,
              const ProgressFn& progress) {
+  return match_core(refd, tgtd, tmesh, p, progress, FeatureCore{});
+}
+
+Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, const TriangleMesh& tmesh, const Params& p,
+                  const ProgressFn& progress, const FeatureCore& core) {
   if (refd.empty() || tgtd.empty()) throw std::invalid_argument("match: empty description");
   const auto& R = refd.impl();
   const auto& T = tgtd.impl();
@@ -575,10 +616,31 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
   // reference's dense samples, so that a transform must lay the whole feature on the target, not only
   // its corners; each with its normal, which must agree with the target's.
+  // Rows of the reference's key points and dense samples that are feature (see FeatureCore), and
+  // a deterministic subsample of at most n of them.
+  auto core_rows = [&](const Points& x) {
+    std::vector<Eigen::Index> r;
+    for (Eigen::Index i = 0; i < x.rows(); ++i)
+      if (core.contains(x.row(i).transpose())) r.push_back(i);
+    if (r.size() < 20 || r.size() * 10 < static_cast<std::size_t>(x.rows())) {  // too little left: all is feature
+      r.resize(static_cast<std::size_t>(x.rows()));
+      std::iota(r.begin(), r.end(), Eigen::Index{0});
+    }
+    return r;
+  };
+  const std::vector<Eigen::Index> core_keys = core_rows(R.keys), core_dense = core_rows(R.dense.points);
+  if (std::getenv("FE_DEBUG") && core.set)
+    std::fprintf(stderr, "debug: feature core (%.1f %.1f %.1f)..(%.1f %.1f %.1f): %zu of %ld key points, %zu of %zu dense samples\n", core.lo.x(), core.lo.y(),
+                 core.lo.z(), core.hi.x(), core.hi.y(), core.hi.z(), core_keys.size(), static_cast<long>(R.keys.rows()), core_dense.size(), R.dense.size());
+  auto sub_rows = [](const std::vector<Eigen::Index>& rows, Eigen::Index n) {
+    std::vector<Eigen::Index> r;
+    for (Eigen::Index i : stride_rows(static_cast<Eigen::Index>(rows.size()), n)) r.push_back(rows[static_cast<std::size_t>(i)]);
+    return r;
+  };
   Points eval_pts, eval_nrm;
   {
-    const std::vector<Eigen::Index> kr = stride_rows(R.keys.rows(), 300);
-    const std::vector<Eigen::Index> dr = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 300);
+    const std::vector<Eigen::Index> kr = sub_rows(core_keys, 300);
+    const std::vector<Eigen::Index> dr = sub_rows(core_dense, 300);
     eval_pts.resize(static_cast<Eigen::Index>(kr.size() + dr.size()), 3);
     eval_nrm.resize(eval_pts.rows(), 3);
     Eigen::Index k = 0;
@@ -588,7 +650,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
   const double normal_penalty = 2.0 * p.accept_error * L;
   Points refine_pts, refine_nrm;
   {
-    const std::vector<Eigen::Index> dr = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 800);
+    const std::vector<Eigen::Index> dr = sub_rows(core_dense, 800);
     refine_pts.resize(static_cast<Eigen::Index>(dr.size()), 3);
     refine_nrm.resize(refine_pts.rows(), 3);
     for (std::size_t k = 0; k < dr.size(); ++k) {
@@ -596,7 +658,7 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       refine_nrm.row(static_cast<Eigen::Index>(k)) = R.dense_normals.row(dr[k]);
     }
   }
-  const std::vector<Eigen::Index> dense_rows = stride_rows(static_cast<Eigen::Index>(R.dense.size()), 1500);
+  const std::vector<Eigen::Index> dense_rows = sub_rows(core_dense, 1500);
   const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
   double best_cost_now = INFINITY;  // for early exit inside the cost while a RANSAC runs
   // RMS distance of the mapped reference (dense subsample) to the target surface, model units: the
@@ -927,14 +989,14 @@ Result match(const ShapeDescription& refd, const ShapeDescription& tgtd, const T
       // Key point agreement (paper's shape index, used as a check): the reference key points must land
       // near target key points of a similar shape index, not on plain or differently curved surface.
       int agree = 0;
-      for (Eigen::Index i = 0; i < R.keys.rows(); ++i) {
+      for (const Eigen::Index i : core_keys) {
         const Eigen::Vector3d y = apply_transform(H, R.keys.row(i).transpose());
         tkey_tree.radius(y, tol + T.sparse_h, near_keys, near_d2);
         bool ok = false;
         for (int j : near_keys) ok = ok || std::abs(T.key_si(j) - R.key_si(i)) <= p.key_si_tolerance;
         agree += ok ? 1 : 0;
       }
-      const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<Eigen::Index>(1, R.keys.rows()));
+      const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<std::size_t>(1, core_keys.size()));
       const bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
       if (debug) {
         const Deformation df = deformation(H, rlo, rhi);
@@ -1212,7 +1274,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     const double L = reference.diagonal();
     const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
     const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
-    Result out = match(r, *t, target, params, progress);
+    const FeatureCore fc = feature_core(reference_in, sr.cut);
+    Result out = match_core(r, *t, target, params, progress, fc);
     if (params.mirror) {
       const auto& R = r.impl();
       out.reference_mirror_symmetric = is_mirror_symmetric(R.dense.points, R.dense_normals, 1.5 * R.dense_h);
@@ -1220,7 +1283,12 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         Eigen::Matrix4d M;
         const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
         const ShapeDescription rm = describe(mirrored_mesh(reference, c, &M), ShapeDescription::Role::Reference, L, params, progress);
-        merge_mirrored(out, match(rm, *t, target, params, progress), M, params);
+        FeatureCore fm = fc;  // the mirror image's core: reflected through x = c.x()
+        if (fc.set) {
+          fm.lo.x() = 2 * c.x() - fc.hi.x();
+          fm.hi.x() = 2 * c.x() - fc.lo.x();
+        }
+        merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
         out.mirror_searched = true;
       }
     }
