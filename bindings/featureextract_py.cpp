@@ -9,6 +9,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
+
 namespace py = pybind11;
 
 namespace {
@@ -137,7 +139,13 @@ PYBIND11_MODULE(_core, m) {
   params.def(py::init<>())
       .def("validate", &fe::Params::validate)
       .def("to_json", [](const fe::Params& p) { return fe::params_to_json(p); })
-      .def_static("from_json", [](const std::string& s) { return fe::params_from_json(s); });
+      .def_static("from_json", [](const std::string& s) {
+        try {
+          return fe::params_from_json(s);
+        } catch (const std::invalid_argument& e) {
+          throw fe::InputError(e.what());
+        }
+      });
   // One property per documented parameter, with its help, unit and default as the docstring.
   for (const fe::ParamInfo& info : fe::param_table()) {
     const std::string name = info.name;
@@ -149,11 +157,19 @@ PYBIND11_MODULE(_core, m) {
           return d[py::str(name)];
         },
         [name](fe::Params& p, py::object v) {
-          const std::string j = py::module_::import("json").attr("dumps")(py::dict(py::arg(name.c_str()) = v)).cast<std::string>();
+          // bad values are bad input: fx.InputError (a ValueError) naming the parameter
+          if (py::isinstance<py::float_>(v) && !std::isfinite(v.cast<double>()))
+            throw fe::InputError("parameter " + name + " must be a finite number");
+          std::string j;
+          try {
+            j = py::module_::import("json").attr("dumps")(py::dict(py::arg(name.c_str()) = v)).cast<std::string>();
+          } catch (const py::error_already_set&) {
+            throw fe::InputError("parameter " + name + " must be a number or true/false, not " + std::string(py::str(v.get_type().attr("__name__"))));
+          }
           try {
             p = fe::params_from_json(j, p);
           } catch (const std::invalid_argument& e) {
-            throw py::value_error(e.what());
+            throw fe::InputError(e.what());
           }
         },
         doc.c_str());

@@ -33,12 +33,13 @@ __all__ = ["Cancelled", "Description", "describe", "element_quality", "FeatureMo
 
 
 def make_params(**values):
-    """Params with the engine's defaults, overridden by keyword (unknown names raise ValueError)."""
+    """Params with the engine's defaults, overridden by keyword (an unknown name or a bad value raises
+    InputError, a ValueError, naming the parameter)."""
     p = Params()
     names = {row["name"] for row in param_table()}
     for k, v in values.items():
         if k not in names:
-            raise ValueError(f"unknown parameter '{k}'")
+            raise InputError(f"unknown parameter '{k}'")
         setattr(p, k, v)
     return p
 

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
+#include <fcntl.h>
 #include <cstdint>
 #include <cstring>
 #include <poll.h>
@@ -91,6 +92,14 @@ TriangleMesh read_isolated(const std::string& name, const std::function<Triangle
     // not run in the child: they print the host's traceback, and some exit() through the host's
     // static destructors. A fault simply ends the child; the parent reports it.
     for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGPIPE, SIGTERM, SIGINT}) ::signal(sig, SIG_DFL);
+    // OpenCASCADE writes some complaints straight to std::cout ("File was not written with this
+    // version of the topology"): the child's output goes nowhere; errors come back through the pipe.
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (null >= 0) {
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+      ::close(null);
+    }
     child(fds[1], read);
   }
   ::close(fds[1]);

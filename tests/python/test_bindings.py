@@ -106,6 +106,16 @@ def test_a_hanging_cad_file_is_stopped_at_the_time_limit():
     assert time.monotonic() - t0 < 30
 
 
+@pytest.mark.parametrize("values", [{"seed": -1}, {"threads": -5}, {"accept_error": float("nan")}, {"accept_error": object()},
+                                    {"accept_error": "x"}, {"no_such_parameter": 1}, {"time_limit": -1}])
+def test_bad_parameters_raise_input_error(values):
+    """Bad input of any kind raises fx.InputError naming what is wrong (issue 10)."""
+    with pytest.raises(fx.InputError, match=next(iter(values)) if "no_such" not in next(iter(values)) else "unknown"):
+        fx.make_params(**values)
+    with pytest.raises(fx.InputError):
+        fx.Params.from_json("{")
+
+
 def test_time_limit_raises_timeout(ref, tgt):
     with pytest.raises(fx.TimeLimitError, match="time limit"):
         fx.extract(ref, tgt, fx.make_params(time_limit=0.2))
