@@ -262,7 +262,11 @@ def main():
             scale = {"ref1.4": 1.4, "ref0.7": 0.7}.get(variant, 1.0)
             tgt, tshape = target, shape
             if variant in ("mirror", "stretch"):
-                tgt = (mirrored_target if variant == "mirror" else stretched_target)(target, work, name)
+                try:
+                    tgt = (mirrored_target if variant == "mirror" else stretched_target)(target, work, name)
+                except Exception as e:  # OpenCASCADE cannot stretch every part (CTC-02: a trimmed curve out of range)
+                    log(f"{name}/{variant}: no target: {e}")
+                    continue
                 tshape = Part.read(tgt)
             for style in a.styles.split(","):
                 cid = f"{name}/{style}/{variant}"
@@ -294,6 +298,8 @@ def main():
                     row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
                                in_range=sum(rng), found_in_range=sum(1 for h, g in zip(hit, rng) if h and g))
                 rows.append(row)
+                if a.out:  # after every run, so that an interrupted run keeps what it measured
+                    json.dump(rows, open(a.out, "w"), indent=1)
                 log(f"{cid} [{row['split']}]: {row['found']}/{row['instances']} found, {row['false']} false, "
                     f"({row['found_in_range']}/{row['in_range']} in 0.5-2x), {row['seconds']} s{' ' + row['error'] if 'error' in row else ''}")
     if a.out:
