@@ -135,34 +135,16 @@ double time_limit(const std::string& name, const TessellationOptions& o, double 
 
 }  // namespace
 
-TriangleMesh read_brep_file(const std::string& path, const std::string& ext, const TessellationOptions& o) {
-  std::error_code ec;
-  const double limit = time_limit(path, o, static_cast<double>(std::filesystem::file_size(path, ec)));
-  return read_isolated(path, [&] {
-    silence_occt();
-    try {
-      return tessellate(read_occt(path, ext), o, path);
-    } catch (const InputError&) {
-      throw;
-    } catch (const Standard_Failure& e) {
-      fail(path, std::string("OpenCASCADE failed: ") + (e.GetMessageString() ? e.GetMessageString() : "unknown error"));
-    } catch (const std::exception& e) {
-      fail(path, e.what());
-    }
-  }, limit);
-}
+namespace {
 
-TriangleMesh read_brep_string(const std::string& brep, const TessellationOptions& o, const std::string& name) {
-  const double limit = time_limit(name, o, static_cast<double>(brep.size()));
-  TriangleMesh m = read_isolated(name, [&] {
+// Runs `tessellated()` in the reader child (isolate.h), with OpenCASCADE's exceptions turned into
+// InputError naming `name`.
+template <class F>
+TriangleMesh read_guarded(const std::string& name, double limit, F tessellated) {
+  return read_isolated(name, [&] {
     silence_occt();
     try {
-      std::istringstream in(brep);
-      TopoDS_Shape shape;
-      BRep_Builder b;
-      BRepTools::Read(shape, in, b);
-      if (shape.IsNull()) fail(name, "not a readable BREP string");
-      return tessellate(shape, o, name);
+      return tessellated();
     } catch (const InputError&) {
       throw;
     } catch (const Standard_Failure& e) {
@@ -171,6 +153,26 @@ TriangleMesh read_brep_string(const std::string& brep, const TessellationOptions
       fail(name, e.what());
     }
   }, limit);
+}
+
+}  // namespace
+
+TriangleMesh read_brep_file(const std::string& path, const std::string& ext, const TessellationOptions& o) {
+  std::error_code ec;
+  const double limit = time_limit(path, o, static_cast<double>(std::filesystem::file_size(path, ec)));
+  return read_guarded(path, limit, [&] { return tessellate(read_occt(path, ext), o, path); });
+}
+
+TriangleMesh read_brep_string(const std::string& brep, const TessellationOptions& o, const std::string& name) {
+  const double limit = time_limit(name, o, static_cast<double>(brep.size()));
+  TriangleMesh m = read_guarded(name, limit, [&] {
+    std::istringstream in(brep);
+    TopoDS_Shape shape;
+    BRep_Builder b;
+    BRepTools::Read(shape, in, b);
+    if (shape.IsNull()) fail(name, "not a readable BREP string");
+    return tessellate(shape, o, name);
+  });
   validate_mesh(m);
   return m;
 }
