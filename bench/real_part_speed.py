@@ -40,7 +40,7 @@ def main():
         runs.append((time.monotonic() - t0, json.load(open(out))))
     runs.sort(key=lambda r: r[0])
     wall, res = runs[len(runs) // 2]
-    tp, fp, _, _ = user_cases.score(res, Part.read(target), lugs)
+    tp, fp = user_cases.score(res, Part.read(target), lugs)[:2]
     print(f"NIST CTC-02 ({res['target']['faces']} faces), lug reference ({res['reference']['faces']} faces): "
           f"median {wall:.1f} s of {a.repeats} (all: {', '.join(f'{r[0]:.1f}' for r in sorted(runs, key=lambda r: r[0]))}); "
           f"{tp} of {len(lugs)} lugs found, {fp} false")
