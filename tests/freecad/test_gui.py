@@ -6,6 +6,7 @@ Activates the workbench, picks a reference from faces, runs the Extract task pan
 a screenshot. Exits 0 when all checks pass (FreeCAD does not exit by itself)."""
 import os
 import sys
+import tempfile
 import time
 import traceback
 
@@ -193,6 +194,32 @@ def main():
         share = sum(c.greenF() > c.redF() + 0.1 and c.greenF() > c.blueF() + 0.1 for c in px) / len(px)
         green += share > 0.05
     check(green >= 4, f"pixels on the meshes carry the quality color ({green}/5 green)")
+
+    # save and reopen with results, references and meshes (issue 11): no error line in the report
+    # view (the proxies were saved through Python 3.11's default __getstate__, and reopening
+    # reassigned Proxy while the document was restoring)
+    report = None
+    for cls in (QtGui.QTextEdit, QtGui.QPlainTextEdit):
+        for w_ in Gui.getMainWindow().findChildren(cls):
+            if "report" in (w_.objectName() or "").lower():
+                report = w_
+    check(report is not None, "report view found")
+    for d, what in ((doc, "results and reference"), (doc2, "FE meshes")):
+        if report is None:
+            break
+        before = report.toPlainText()
+        path = os.path.join(tempfile.mkdtemp(), "saved.FCStd")
+        d.saveAs(path)
+        App.closeDocument(d.Name)
+        again = App.openDocument(path)
+        for _ in range(20):
+            QtGui.QApplication.processEvents()
+        new = report.toPlainText()[len(before):]
+        bad = [l for l in new.splitlines() if ("JSON serializable" in l or "setAttr failed" in l or "Traceback" in l)
+               and "no error in the report view" not in l]  # not this test's own lines
+        check(not bad, f"save and reopen with {what}: no error in the report view {bad[:2]}")
+        if d is doc:
+            check(len(api.results_for(again.getObject("Part"))) == 5, "results intact after reopening")
 
 
 try:

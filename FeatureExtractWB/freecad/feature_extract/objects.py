@@ -6,7 +6,13 @@ from . import icon
 
 
 class _Stateless:
-    """Proxies keep everything in properties: nothing of their own to save or restore."""
+    """Proxies keep everything in properties: nothing of their own to save or restore.
+
+    FreeCAD 0.20 saves a proxy through __getstate__ (0.21 through dumps). On Python 3.11 every
+    object has a __getstate__ that returns its __dict__, and a view provider keeps its Object there:
+    "Object of type FeaturePython is not JSON serializable" at every save (issue 11). Both spellings
+    say: nothing. Restoring needs nothing either (assigning obj.Proxy while the document is being
+    restored is what raised "setAttr failed" on every reopen)."""
 
     def dumps(self):
         return None
@@ -14,8 +20,11 @@ class _Stateless:
     def loads(self, state):
         return None
 
-    def onDocumentRestored(self, obj):
-        obj.Proxy = self
+    def __getstate__(self):
+        return None
+
+    def __setstate__(self, state):
+        return None
 
 
 class ReferenceFeature(_Stateless):
