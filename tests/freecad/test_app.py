@@ -75,9 +75,11 @@ class App_(unittest.TestCase):
         for r in group.Group:
             self.assertEqual(r.Target.Name, "Part")
             self.assertIsNotNone(r.Reference)
-        # running again replaces the results instead of piling them up
+        # running again replaces the results instead of piling them up, with the same plain labels
         api.extract(self.doc.getObject("Part"), self.doc.getObject(ref_name), seed=1)
         self.assertEqual(len(self.doc.getObject(api.RESULT_GROUP).Group), 5)
+        for r in self.doc.getObject(api.RESULT_GROUP).Group:
+            self.assertRegex(r.Label, r"^Similar [1-5] \(\d\.\d\d\)$")
 
     def test_reference_file_and_saved_brep(self):
         results = api.extract(self.part, os.path.join(MODELS, "rib_reference.step"))

@@ -248,7 +248,6 @@ def add_results(target_obj, reference, result):
             obj = doc.addObject("App::FeaturePython", "Similar")
             created.append(obj)
             ExtractionResult(obj)
-            obj.Label = f"Similar {i + 1} ({m.score:.2f})"
             obj.Target = target_obj
             obj.Reference = ref_obj
             obj.ReferenceText = ref_text
@@ -269,6 +268,10 @@ def add_results(target_obj, reference, result):
         group.addObjects(new)
         for o in old:  # only once everything new exists
             doc.removeObject(o.Name)
+        # labelled once the old results are gone: FreeCAD keeps labels unique, and a re-run labelled
+        # beside its predecessors came out as "Similar 2 (0.99)001" (issue 11)
+        for i, (obj, m) in enumerate(zip(new, result.matches)):
+            obj.Label = f"Similar {i + 1} ({m.score:.2f})"
         doc.recompute()
     if App.GuiUp:
         from .objects import recolor
