@@ -183,6 +183,12 @@ class App_(unittest.TestCase):
             api.make_reference(self.part, ["Face9999"])
         with self.assertRaises(api.FeatureExtractError):  # a shape is not a document object
             api.make_reference(self.part.Shape, ["Face1"])
+        # one flat face, or coplanar ones, refused at pick time in an analyst's words (issue 11)
+        flat = [f"Face{i}" for i, f in enumerate(self.part.Shape.Faces, 1) if type(f.Surface).__name__ == "Plane"]
+        with self.assertRaisesRegex(api.FeatureExtractError, "one flat plane"):
+            api.make_reference(self.part, flat[:1])
+        ref = api.make_reference(self.part, rib_faces(self.part.Shape, 60.0))  # a rib's faces are fine
+        before.append(ref.Name)
         empty = self.doc.addObject("App::FeaturePython", "NoShape")
         before.append(empty.Name)
         with self.assertRaises(api.FeatureExtractError):

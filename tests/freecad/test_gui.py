@@ -28,7 +28,7 @@ def main():
     import FreeCAD as App
     import FreeCADGui as Gui
     import Part
-    from PySide import QtGui
+    from PySide import QtCore, QtGui
 
     if "FeatureExtractWorkbench" in Gui.listWorkbenches():
         print("note: the workbench was loaded at start-up from the user's Mod folder")
@@ -78,6 +78,17 @@ def main():
     Gui.runCommand("FE_PickReference")
     refs = [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
     check(len(refs) == 1 and list(refs[0].Faces) == faces, f"reference made from {len(faces)} picked faces")
+
+    # the panel offers the reference picked last, and counts faces in words (issue 11)
+    curved = [f for f in faces if type(part.Shape.getElement(f).Surface).__name__ != "Plane"][:1]
+    newer = api.make_reference(part, curved, label="Newer")
+    probe = taskpanel.ExtractPanel(part, [refs[0], newer])
+    check(probe.ref_box.currentText() == newer.Label, f"panel preselects the newest reference ({probe.ref_box.currentText()})")
+    tip = probe.ref_box.itemData(probe.ref_box.currentIndex(), QtCore.Qt.ToolTipRole)
+    check(tip.startswith("1 face of"), f"reference tooltip in words ({tip})")
+    taskpanel.current = None
+    doc.removeObject(newer.Name)
+    doc.recompute()
 
     # the samples/key points overlay toggles
     Gui.Selection.clearSelection()

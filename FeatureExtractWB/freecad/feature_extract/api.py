@@ -101,6 +101,22 @@ def reference_shape(ref_obj):
     return Part.makeCompound(faces)
 
 
+def _one_plane(faces, size):
+    """Do all these faces lie in one plane?"""
+    import Part
+    ref = None
+    for face in faces:
+        surf = face.Surface
+        if not isinstance(surf, Part.Plane):
+            return False
+        if ref is None:
+            ref = surf
+            continue
+        if ref.Axis.cross(surf.Axis).Length > 1e-6 or abs((surf.Position - ref.Position).dot(ref.Axis)) > 1e-6 * size:
+            return False
+    return ref is not None
+
+
 def make_reference(source, faces, label="Reference"):
     """Creates a persistent Reference feature from faces of `source` (names like 'Face3')."""
     from .objects import ReferenceFeature
@@ -118,6 +134,12 @@ def make_reference(source, faces, label="Reference"):
             shape.getElement(f)
         except Exception:
             raise FeatureExtractError(f"{source.Label}: has no {f}")
+    if _one_plane([shape.getElement(f) for f in faces], shape.BoundBox.DiagonalLength):
+        # said at pick time, in an analyst's words: the engine would refuse it only after a run
+        raise FeatureExtractError(translate(
+            "FeatureExtract", "{0}: the picked faces lie in one flat plane, and a flat patch has no shape of its own to "
+                              "look for. Pick the faces of the feature itself: its walls, fillets and top, or a hole's wall.")
+            .format(source.Label))
     doc = source.Document
     with _changes(doc, "Make reference feature") as created:
         obj = doc.addObject("Part::FeaturePython", label)

@@ -45,7 +45,11 @@ class ExtractPanel:
         self.ref_box = QtGui.QComboBox()
         for i, r in enumerate(references):
             self.ref_box.addItem(r.Label)
-            self.ref_box.setItemData(i, f"{len(r.Faces)} faces of {r.Source.Label if r.Source else '?'}", QtCore.Qt.ToolTipRole)
+            n = len(r.Faces)
+            self.ref_box.setItemData(i, f"{n} face{'' if n == 1 else 's'} of {r.Source.Label if r.Source else '?'}",
+                                     QtCore.Qt.ToolTipRole)
+        if references:  # the reference picked last is the one the user means (issue 11)
+            self.ref_box.setCurrentIndex(max(range(len(references)), key=lambda i: references[i].ID))
         top.addRow(translate("FeatureExtract", "Reference"), self.ref_box)
         self.preset = QtGui.QComboBox()
         self.preset.addItems(list(PRESETS))
