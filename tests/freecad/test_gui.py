@@ -215,6 +215,8 @@ def main():
             if "report" in (w_.objectName() or "").lower():
                 report = w_
     check(report is not None, "report view found")
+    if report is not None:
+        check("FE mesh(es) of boss placed on" in report.toPlainText(), "placing meshes says so in the report view")
     for d, what in ((doc, "results and reference"), (doc2, "FE meshes")):
         if report is None:
             break

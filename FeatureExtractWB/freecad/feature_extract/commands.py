@@ -220,6 +220,10 @@ class PlaceMesh:
             if kind == "ok":
                 _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
                     f".getObject('{target.Name}'), {feature_dir!r})")
+                placed = api.meshes_for(target)
+                App.Console.PrintMessage(  # the user sees that it worked, and where (issue 11)
+                    f"FeatureExtract: {len(placed)} FE mesh(es) of {os.path.basename(os.path.normpath(feature_dir))} "
+                    f"placed on {target.Label} ({sum(m.FemMesh.FaceCount + m.FemMesh.VolumeCount for m in placed)} elements)\n")
             elif kind == "error":
                 report_error(value)
             else:
