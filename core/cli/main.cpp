@@ -166,11 +166,16 @@ int main(int argc, char** argv) {
     }
     std::stringstream ss;
     ss << in.rdbuf();
+    const nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+      say(config_path + ": not a JSON object of parameters");
+      return 3;
+    }
     try {
       params = fe::params_from_json(ss.str());
     } catch (const std::invalid_argument& e) {  // a value out of range or an unknown name: usage
       say(config_path + ": " + e.what());
-      return std::string(e.what()).rfind("not valid JSON", 0) == 0 || std::string(e.what()).rfind("parameters must", 0) == 0 ? 3 : 2;
+      return 2;
     }
   }
   try {

@@ -496,18 +496,12 @@ FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut) {
   FeatureCore c;
   if (cut.triangles == 0) return c;
   const Eigen::Vector3d lo = reference.vertices.colwise().minCoeff(), hi = reference.vertices.colwise().maxCoeff();
-  const double tol = 2e-3 * (hi - lo).norm();
   c.lo = lo;
   c.hi = hi;
-  for (Eigen::Index t = 0; t < reference.triangles.rows(); ++t) {
-    if (!cut.cut_triangle[static_cast<std::size_t>(t)]) continue;
-    const Eigen::Vector3d g = (reference.vertices.row(reference.triangles(t, 0)) + reference.vertices.row(reference.triangles(t, 1)) +
-                               reference.vertices.row(reference.triangles(t, 2))).transpose() / 3.0;
-    for (int a = 0; a < 3; ++a) {
-      const double m = kContextMargin * (hi(a) - lo(a));
-      if (std::abs(g(a) - lo(a)) <= tol) c.lo(a) = std::max(c.lo(a), lo(a) + m);
-      if (std::abs(g(a) - hi(a)) <= tol) c.hi(a) = std::min(c.hi(a), hi(a) - m);
-    }
+  for (int a = 0; a < 3; ++a) {
+    const double m = kContextMargin * (hi(a) - lo(a));
+    if (cut.cut_sides[static_cast<std::size_t>(2 * a)]) c.lo(a) = lo(a) + m;
+    if (cut.cut_sides[static_cast<std::size_t>(2 * a + 1)]) c.hi(a) = hi(a) - m;
   }
   c.set = true;
   return c;
@@ -613,9 +607,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   res.timings.push_back({"clusters", sw.lap()});
 
   // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds.
-  // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
-  // reference's dense samples, so that a transform must lay the whole feature on the target, not only
-  // its corners; each with its normal, which must agree with the target's.
   // Rows of the reference's key points and dense samples that are feature (see FeatureCore), and
   // a deterministic subsample of at most n of them.
   auto core_rows = [&](const Points& x) {
@@ -637,6 +628,9 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     for (Eigen::Index i : stride_rows(static_cast<Eigen::Index>(rows.size()), n)) r.push_back(rows[static_cast<std::size_t>(i)]);
     return r;
   };
+  // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
+  // reference's dense samples, so that a transform must lay the whole feature on the target, not only
+  // its corners; each with its normal, which must agree with the target's.
   Points eval_pts, eval_nrm;
   {
     const std::vector<Eigen::Index> kr = sub_rows(core_keys, 300);
@@ -998,8 +992,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       }
       const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<std::size_t>(1, core_keys.size()));
       const bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
+      const Deformation df = deformation(H, rlo, rhi);
       if (debug) {
-        const Deformation df = deformation(H, rlo, rhi);
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
         std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",
                      order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
@@ -1045,12 +1039,9 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       mt.scale = s;
       mt.pairs = static_cast<int>(explained);
       mt.key_agreement = key_agreement;
-      {
-        const Deformation df = deformation(H, rlo, rhi);
-        mt.stretch_min = df.scale_min;
-        mt.stretch_max = df.scale_max;
-        mt.perspective = df.perspective;
-      }
+      mt.stretch_min = df.scale_min;
+      mt.stretch_max = df.scale_max;
+      mt.perspective = df.perspective;
       // Covered target region: dense samples near the mapped reference.
       const double cov = tol + R.dense_h * s;
       const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(cov);
@@ -1236,7 +1227,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
                      TargetFor target_for);
 
 // The whole search for one reference: cut faces, the reference and (unless it is its own mirror
-// image) its mirror image matched against the target's description from `target_for(L, params)`,
+// image) its mirror image matched against the target's description from
+// `target_for(L, params, progress)`,
 // with the ridge-and-rut fallback around both.
 template <class TargetFor>
 Result search(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
@@ -1270,11 +1262,11 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   const SearchedReference sr = searched_reference(reference_in, params_in);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
+  const FeatureCore fc = feature_core(reference_in, sr.cut);
   Result res = with_fallback(params_in, [&](const Params& params) {
     const double L = reference.diagonal();
     const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
     const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
-    const FeatureCore fc = feature_core(reference_in, sr.cut);
     Result out = match_core(r, *t, target, params, progress, fc);
     if (params.mirror) {
       const auto& R = r.impl();

@@ -143,6 +143,8 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
     return out;
   }
   out.triangles = static_cast<std::size_t>(std::count(out.cut_triangle.begin(), out.cut_triangle.end(), 1));
+  for (Eigen::Index t = 0; t < T; ++t)
+    if (out.cut_triangle[static_cast<std::size_t>(t)]) out.cut_sides[static_cast<std::size_t>(plane[static_cast<std::size_t>(t)])] = true;
   if (m.from_brep()) {
     std::vector<char> is_cut(static_cast<std::size_t>(m.num_faces + 1), 0);
     for (Eigen::Index t = 0; t < T; ++t)

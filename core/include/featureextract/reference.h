@@ -7,6 +7,7 @@
 #include "featureextract/mesh.h"
 
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 namespace fe {
@@ -17,6 +18,8 @@ struct CutFaces {
   std::vector<char> cut_triangle;      ///< per triangle: 1 if it lies on a cut face
   std::vector<int> faces;              ///< 1-based B-rep faces treated as cut (empty for mesh input)
   std::size_t triangles = 0;           ///< number of cut triangles
+  /// Sides of the bounding box (-x, +x, -y, +y, -z, +z) holding cut faces.
+  std::array<bool, 6> cut_sides{};
 };
 
 /// Cut faces of a reference that was cut out of a part with a box (the paper's own way of making a
