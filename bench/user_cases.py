@@ -241,6 +241,7 @@ def main():
     ap.add_argument("--variants", default="plain,mirror,ref1.4,ref0.7,stretch")
     ap.add_argument("--timeout", type=float, default=300)
     ap.add_argument("--out", default="", help="write the rows as JSON")
+    ap.add_argument("--work", default="", help="keep the references, targets and each run's result JSON in this folder (to look into a case)")
     ap.add_argument("--evidence", action="store_true", help="add each match's acceptance evidence, labelled true or false, to the rows")
     ap.add_argument("--markdown", nargs="+", metavar="JSON", help="print the tables of earlier runs' JSON rows and exit")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter (for experiments only: results are reported with the defaults)")
@@ -250,7 +251,8 @@ def main():
         print(markdown(rows))
         return
     exe = os.path.join(a.build, "featureextract")
-    work = tempfile.mkdtemp(prefix="fe_user_cases_")
+    work = a.work or tempfile.mkdtemp(prefix="fe_user_cases_")
+    os.makedirs(work, exist_ok=True)
     rows = []
     for name, target, instances in base_cases(a.build):
         if a.only and split(name) != a.only:
@@ -275,7 +277,7 @@ def main():
                 except Exception as e:  # a reference FreeCAD cannot make (e.g. an empty common)
                     log(f"{cid}: no reference: {e}")
                     continue
-                out = os.path.join(work, "out.json")
+                out = os.path.join(work, f"{name}_{style}_{variant}.json" if a.work else "out.json")
                 t0 = time.monotonic()
                 p = subprocess.run([exe, "extract", "--reference", ref, "--target", tgt, "--output", out, "--quiet", *[x for kv in a.set for x in ("--set", kv)]],
                                    capture_output=True, text=True, timeout=a.timeout)

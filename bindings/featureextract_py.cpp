@@ -226,6 +226,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("reference_closed", &fe::Result::reference_closed, "the reference is a closed surface (a solid)")
       .def_readonly("reference_cut_faces", &fe::Result::reference_cut_faces, "1-based reference faces treated as cut and not searched")
       .def_readonly("reference_cut_triangles", &fe::Result::reference_cut_triangles)
+      .def_readonly("reference_cut_sides", &fe::Result::reference_cut_sides,
+                    "sides of the reference's box ('-x' ... '+z') where it was cut out; the 20 % next to them is context")
       .def("to_json", [](const fe::Result& r) { return fe::result_to_json(r); }, "the CLI's result JSON");
 
   m.def("extract", [](const fe::TriangleMesh& ref, const fe::TriangleMesh& tgt, const fe::Params& p, const py::object& progress) {

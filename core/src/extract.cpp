@@ -494,7 +494,7 @@ constexpr double kContextMargin = 0.2;
 
 FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut) {
   FeatureCore c;
-  if (cut.triangles == 0) return c;
+  if (!cut.any_side_cut()) return c;
   const Eigen::Vector3d lo = reference.vertices.colwise().minCoeff(), hi = reference.vertices.colwise().maxCoeff();
   c.lo = lo;
   c.hi = hi;
@@ -1006,21 +1006,26 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       }
       // Pairs whose target point this hypothesis explains are removed either way; on rejection only
       // those around its sample, so the next search looks elsewhere.
+      // An accepted hypothesis that explains no pair (the same instance found again, its pairs gone)
+      // drops those around its sample too, so the search goes on elsewhere instead of ending.
       KdTree3 mtree(mapped);
-      const double reach = accepted ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
       std::vector<KeyPointPair> rest;
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        bool drop;
-        if (accepted) {
-          double d2;
-          mtree.nearest(T.keys.row(pairs[i].tgt).transpose(), &d2);
-          drop = std::sqrt(d2) <= reach;
-        } else {
-          drop = false;
-          for (int si : rr.sample) drop = drop || (tp.row(static_cast<Eigen::Index>(i)) - tp.row(si)).norm() <= reach;
+      for (int pass = accepted ? 0 : 1; pass < 2 && (pass == (accepted ? 0 : 1) || rest.size() == pairs.size()); ++pass) {
+        const double reach = pass == 0 ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
+        rest.clear();
+        for (std::size_t i = 0; i < pairs.size(); ++i) {
+          bool drop = false;
+          if (pass == 0) {
+            double d2;
+            mtree.nearest(T.keys.row(pairs[i].tgt).transpose(), &d2);
+            drop = std::sqrt(d2) <= reach;
+          } else {
+            for (int si : rr.sample) drop = drop || (tp.row(static_cast<Eigen::Index>(i)) - tp.row(si)).norm() <= reach;
+          }
+          if (!drop) rest.push_back(pairs[i]);
         }
-        if (!drop) rest.push_back(pairs[i]);
       }
+      if (debug) std::fprintf(stderr, "   pairs %zu -> %zu\n", pairs.size(), rest.size());
       if (rest.size() == pairs.size()) break;  // no progress possible
       const std::size_t explained = pairs.size() - rest.size();
       pairs.swap(rest);
@@ -1289,6 +1294,19 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   res.reference_closed = sr.cut.closed;
   res.reference_cut_faces = sr.cut.faces;
   res.reference_cut_triangles = sr.cut.triangles;
+  static const char* const kSide[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+  std::string sides;
+  for (std::size_t s = 0; s < 6; ++s)
+    if (sr.cut.cut_sides[s]) {
+      res.reference_cut_sides.emplace_back(kSide[s]);
+      sides += (sides.empty() ? "" : ", ") + std::string(kSide[s]);
+    }
+  if (!sr.cut.closed && !sides.empty()) {
+    std::ostringstream w;
+    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": open mesh region whose border runs along its box's "
+      << sides << " side(s), taken as clipped there: the 20 % next to them is judged as context";
+    res.warnings.push_back(w.str());
+  }
   if (sr.cut.triangles > 0) {
     std::ostringstream w;
     w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": closed reference, searched without its "

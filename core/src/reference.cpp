@@ -35,6 +35,10 @@ int find_root(std::vector<int>& parent, int i) {
   return i;
 }
 
+// Share of an open region's border length that must lie along a bounding-box side for the side to
+// count as cut.
+constexpr double kBorderShare = 0.1;
+
 }  // namespace
 
 CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
@@ -64,8 +68,36 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
   double open = 0;
   for (const auto& e : edges)
     if (e.second.first == 1) open += e.second.second;
-  out.closed = open <= 0.005 * total;
-  if (!out.closed) return out;
+  // (a little open length from welding is tolerated; a region clipped out of a fine mesh has a
+  // border of at least about its box's diagonal, however small a share of all its edges that is)
+  out.closed = open <= 0.005 * total && open <= 0.1 * diag;
+  if (!out.closed) {
+    // An open mesh region (not picked B-rep faces) whose border runs along sides of its bounding box
+    // was clipped out of a mesh with a box: those sides are cut, though no cut face closes them.
+    if (m.from_brep() || !(open > 0)) return out;
+    std::array<double, 6> along{};
+    for (Eigen::Index t = 0; t < T; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
+        const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(a)]), w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(b)]);
+        const auto& e = edges[std::min(u, w) << 32 | std::max(u, w)];
+        if (e.first != 1) continue;
+        const Eigen::Vector3d n = (m.vertices.row(m.triangles(t, 1)) - m.vertices.row(m.triangles(t, 0)))
+                                      .cross(m.vertices.row(m.triangles(t, 2)) - m.vertices.row(m.triangles(t, 0)))
+                                      .transpose()
+                                      .normalized();
+        for (int axis = 0; axis < 3; ++axis)
+          for (int side = 0; side < 2; ++side) {
+            // the surface must cross the side (a face lying in it, like a plate's bottom, is not cut there)
+            if (!(std::abs(n(axis)) < 0.9)) continue;
+            const double wv = side ? hi(axis) : lo(axis);
+            if (std::abs(m.vertices(a, axis) - wv) <= tol && std::abs(m.vertices(b, axis) - wv) <= tol)
+              along[static_cast<std::size_t>(2 * axis + side)] += e.second;
+          }
+      }
+    for (std::size_t s = 0; s < 6; ++s) out.cut_sides[s] = along[s] >= kBorderShare * open;
+    return out;
+  }
 
   // Plane of the bounding box each triangle lies in (0..5 = -x, +x, -y, +y, -z, +z), facing out.
   std::vector<int> plane(static_cast<std::size_t>(T), -1);

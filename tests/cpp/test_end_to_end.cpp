@@ -185,6 +185,28 @@ TEST(EndToEnd, BoxCutEarIsJudgedOnItsCore) {
   for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
 }
 
+TEST(EndToEnd, StlRegionEarIsJudgedAwayFromItsClippedBorder) {
+  // The FTC-10 ear clipped out of the part's fine tessellation with a box 20 % larger, as a user
+  // clips a region out of an STL: 15,000 triangles, whose border is under 0.5 % of all edge length.
+  // It was taken for a closed solid, its real top face for a cut face, and the housing around it
+  // judged as feature: 2 of 4 ears. Open, with its clipped sides' 20 % as context: all four.
+  const fe::TriangleMesh tgt = fe::read_shape(models() + "/suite/ftc10.step", fe::tessellation_for_feature(47.4));
+  const fe::TriangleMesh ear = fe::read_shape(models() + "/suite/ftc10_ear_reference.step");  // the ear's faces
+  const Eigen::Vector3d lo = ear.vertices.colwise().minCoeff().transpose(), hi = ear.vertices.colwise().maxCoeff().transpose();
+  const double margin = 0.2 * (hi - lo).norm();
+  const fe::TriangleMesh ref = fe_test::clip_to_box(tgt, lo.array() - margin, hi.array() + margin);
+  const fe::Result r = fe::extract(ref, tgt);
+  EXPECT_FALSE(r.reference_closed);
+  EXPECT_EQ(r.reference_cut_triangles, 0u);
+  EXPECT_FALSE(r.reference_cut_sides.empty());
+  int corners[4] = {0, 0, 0, 0};
+  for (const fe::Match& m : r.matches) {
+    ASSERT_TRUE(std::abs(m.center.x()) > 55 && std::abs(m.center.z()) > 15) << m.center.transpose();
+    ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
+  }
+  for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+}
+
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
   const fe::Result r = run("rib_reference.step", "boss_only.step");
   EXPECT_TRUE(r.matches.empty());

@@ -69,6 +69,22 @@ TEST(CutFaces, PickedFacesAreAnOpenShellWithNothingCut) {
   EXPECT_FALSE(c.closed);
   EXPECT_EQ(c.triangles, 0u);
   EXPECT_TRUE(c.faces.empty());
+  EXPECT_FALSE(c.any_side_cut());  // picked faces end at the feature's edges, not at a cut
+}
+
+TEST(CutFaces, StlRegionClippedByABoxIsOpenAndCutAlongItsBorder) {
+  // the first rib (x 24.7-35.3, y 18.5-61.5, z 0-12 on a plate 6 thick) clipped out of the plate's
+  // tessellation with a box 20 % larger, as from an STL: an open region whose border runs along the
+  // box's four vertical sides; the box's top and bottom reach no surface, so they are not cut
+  const fe::TriangleMesh plate = fe::read_shape(models() + "/ribs_bosses.step");
+  const fe::TriangleMesh ref = fe_test::clip_to_box(plate, {15, 9, -9}, {45, 71, 21});
+  ASSERT_GT(ref.triangles.rows(), 20);
+  const fe::CutFaces c = fe::detect_cut_faces(ref);
+  EXPECT_FALSE(c.closed);
+  EXPECT_EQ(c.triangles, 0u);  // nothing to leave out: no cap closes it
+  for (int s = 0; s < 4; ++s) EXPECT_TRUE(c.cut_sides[static_cast<std::size_t>(s)]) << "side " << s;
+  EXPECT_FALSE(c.cut_sides[4]);  // the plate's bottom lies on the box's -z side but is surface
+  EXPECT_FALSE(c.cut_sides[5]);  // the rib's top
 }
 
 TEST(CutFaces, AClosedBoxIsAFeatureNotAllCut) {

@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace fe_test {
 
@@ -32,6 +34,44 @@ inline int match_near(const fe::Result& r, double x, double y, double tol) {
   for (std::size_t i = 0; i < r.matches.size(); ++i)
     if (std::abs(r.matches[i].center.x() - x) < tol && std::abs(r.matches[i].center.y() - y) < tol) return static_cast<int>(i);
   return -1;
+}
+
+// The triangles of `m` clipped to the box lo..hi, as a user clips a region out of an STL (no caps:
+// an open region; a triangle soup without B-rep faces, like an STL file).
+inline fe::TriangleMesh clip_to_box(const fe::TriangleMesh& m, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  std::vector<Eigen::Vector3d> out;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    std::vector<Eigen::Vector3d> poly;
+    for (int k = 0; k < 3; ++k) poly.push_back(m.vertices.row(m.triangles(t, k)).transpose());
+    for (int axis = 0; axis < 3 && !poly.empty(); ++axis)
+      for (int side = 0; side < 2 && !poly.empty(); ++side) {  // Sutherland-Hodgman, one box plane at a time
+        const double w = side ? hi(axis) : lo(axis);
+        auto inside = [&](const Eigen::Vector3d& v) { return side ? v(axis) <= w : v(axis) >= w; };
+        std::vector<Eigen::Vector3d> next;
+        for (std::size_t k = 0; k < poly.size(); ++k) {
+          const Eigen::Vector3d& p = poly[k];
+          const Eigen::Vector3d& q = poly[(k + 1) % poly.size()];
+          if (inside(p)) next.push_back(p);
+          if (inside(p) != inside(q)) next.push_back(p + (w - p(axis)) / (q(axis) - p(axis)) * (q - p));
+        }
+        poly.swap(next);
+      }
+    for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
+      out.push_back(poly[0]);
+      out.push_back(poly[k]);
+      out.push_back(poly[k + 1]);
+    }
+  }
+  fe::TriangleMesh r;
+  r.vertices.resize(static_cast<Eigen::Index>(out.size()), 3);
+  r.triangles.resize(static_cast<Eigen::Index>(out.size() / 3), 3);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    r.vertices.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+    r.triangles(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)) = static_cast<int>(i);
+  }
+  r.face_ids = Eigen::VectorXi::Zero(r.triangles.rows());
+  r.source = "clipped region";
+  return r;
 }
 
 // Expects read(path) to throw InputError whose message starts with "PATH: ", is one line and

@@ -223,6 +223,7 @@ def test_box_cut_reference_and_mirror_images_are_reported():
     boxcut = fx.read_shape(os.path.join(MODELS, "rib_boxcut_reference.brep"))
     r = fx.extract(boxcut, fx.read_target(os.path.join(MODELS, "ribs_bosses.step"), boxcut), seed=1)
     assert r.reference_closed and len(r.reference_cut_faces) == 5 and len(r.matches) == 5
+    assert set(r.reference_cut_sides) == {"-x", "+x", "-y", "+y", "-z"}  # the box reached below the plate, not above the rib
     assert any("cut face" in w for w in r.warnings)
     pad = fx.read_shape(os.path.join(MODELS, "l_pad_reference.brep"))
     m = fx.extract(pad, fx.read_target(os.path.join(MODELS, "l_pads.step"), pad), seed=1)

@@ -18,8 +18,15 @@ struct CutFaces {
   std::vector<char> cut_triangle;      ///< per triangle: 1 if it lies on a cut face
   std::vector<int> faces;              ///< 1-based B-rep faces treated as cut (empty for mesh input)
   std::size_t triangles = 0;           ///< number of cut triangles
-  /// Sides of the bounding box (-x, +x, -y, +y, -z, +z) holding cut faces.
+  /// Sides of the bounding box (-x, +x, -y, +y, -z, +z) where the reference was cut: they hold cut
+  /// faces (closed reference), or, for an open mesh region clipped out of a mesh with a box, at
+  /// least a tenth of its border runs along them (`triangles` is then 0: nothing is left out).
   std::array<bool, 6> cut_sides{};
+  bool any_side_cut() const {
+    for (bool s : cut_sides)
+      if (s) return true;
+    return false;
+  }
 };
 
 /// Cut faces of a reference that was cut out of a part with a box (the paper's own way of making a

@@ -52,6 +52,9 @@ struct Result {
   bool reference_closed = false;        ///< the reference is a closed surface (a solid)
   std::vector<int> reference_cut_faces; ///< 1-based reference faces treated as cut (not searched)
   std::size_t reference_cut_triangles = 0;
+  /// Sides of the reference's bounding box ("-x" ... "+z") where it was cut out (cut faces, or an
+  /// open mesh region's border): the 20 % of the reference next to them is judged as context.
+  std::vector<std::string> reference_cut_sides;
 };
 
 /// The JSON document of the CLI contract (README, "Result JSON").
