@@ -199,6 +199,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("stretch_min", &fe::Match::stretch_min, "smallest singular value of H's Jacobian at the feature's center")
       .def_readonly("stretch_max", &fe::Match::stretch_max, "largest singular value of H's Jacobian at the feature's center")
       .def_readonly("perspective", &fe::Match::perspective, "largest |w - 1| of H over the reference feature's box")
+      .def_readonly("obstructed", &fe::Match::obstructed, "fraction of the reference's free-space rays (along its outward normals) that meet target surface")
       .def_readonly("mirrored", &fe::Match::mirrored, "found as the reference's mirror image (negative determinant)");
 
   py::class_<fe::ShapeStats>(m, "ShapeStats")

@@ -1,6 +1,8 @@
 // The pipeline of Takashima & Kanai, section 3: describe() is steps 1-3, match() steps 4-6.
 #include "featureextract/extract.h"
 
+#include "featureextract/clearance.h"
+
 #include "featureextract/geometry.h"
 #include "featureextract/reference.h"
 #include "kdtree.h"
@@ -491,6 +493,9 @@ struct FeatureCore {
   bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
 };
 constexpr double kContextMargin = 0.2;
+// A target face covered less than this by the mapped reference is only partly the feature's
+// (whole_faces): a step on 40 % of a slot's floor; a boss of other proportions covers 70 %.
+constexpr double kWholeFaceFill = 0.6;
 
 FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut) {
   FeatureCore c;
@@ -741,6 +746,102 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     return errs[q];
   };
 
+  // Free space in front of the reference's surface (clearance.h), from its core samples.
+  const Clearance clearance(R.dense.points, R.dense_normals, sub_rows(core_dense, 400),
+                            [&](const Eigen::Vector3d& x) {
+                              double d2;
+                              return R.dense_tree->nearest(x, &d2) < 0 ? INFINITY : std::sqrt(d2);
+                            },
+                            R.box_min, R.box_max, R.dense_h, p.clearance_margin * L);
+  // Whole faces (clearance.h): reference faces all of whose samples are feature, with enough samples
+  // to measure their area, must land on whole target faces.
+  FaceCoverCheck whole_faces;
+  if (R.dense.face_ids.size() && T.dense.face_ids.size() && p.max_partial_faces < 1) {
+    const int nf = std::max(R.dense.face_ids.maxCoeff(), 0) + 1;
+    std::vector<int> in_core(static_cast<std::size_t>(nf), 0), all(static_cast<std::size_t>(nf), 0);
+    for (Eigen::Index i = 0; i < R.dense.face_ids.size(); ++i) ++all[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
+    for (const Eigen::Index i : core_dense) ++in_core[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
+    whole_faces.checked.assign(static_cast<std::size_t>(nf), 0);
+    for (int f = 1; f < nf; ++f) whole_faces.checked[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)] >= 20 && in_core[static_cast<std::size_t>(f)] == all[static_cast<std::size_t>(f)];
+    whole_faces.reference = &R.dense;
+    whole_faces.rows = core_dense;
+    whole_faces.reference_spacing = R.dense_h;
+    whole_faces.target_faces = &T.dense.face_ids;
+    whole_faces.target_area.assign(static_cast<std::size_t>(std::max(T.dense.face_ids.maxCoeff(), 0) + 1), 0.0);
+    for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
+      if (T.dense.face_ids(j) > 0) whole_faces.target_area[static_cast<std::size_t>(T.dense.face_ids(j))] += T.dense_h * T.dense_h;
+    whole_faces.target_nearest = [&](const Eigen::Vector3d& y, double* d) {
+      double d2;
+      const int j = T.dense_tree->nearest(y, &d2);
+      *d = j < 0 ? INFINITY : std::sqrt(d2);
+      return j;
+    };
+  }
+  // Reverse pairs for the surface refinement (issue 9): the refinement pulls reference samples onto
+  // the target, which a fit on part of a larger instance already satisfies (a rib stretched 2x
+  // fitted over half its length, a step smaller than the one it lies on). Target samples of the
+  // faces that whole reference faces land on pull the other way, onto the nearest mapped reference
+  // sample, so the fit grows to cover those faces, up to 4 times the mapped area. Returns the mean
+  // distance of those target samples to the mapped reference (reference units, truncated at the
+  // normal penalty), and the pairs when asked.
+  std::vector<int> refine_face;
+  std::vector<std::vector<int>> face_rows;  // target face -> its dense samples, at most 150
+  if (whole_faces.reference) {
+    for (const Eigen::Index i : sub_rows(core_dense, 800)) refine_face.push_back(R.dense.face_ids(i));
+    std::vector<std::vector<int>> all(whole_faces.target_area.size());
+    for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
+      if (T.dense.face_ids(j) > 0) all[static_cast<std::size_t>(T.dense.face_ids(j))].push_back(static_cast<int>(j));
+    face_rows.resize(all.size());
+    for (std::size_t g = 0; g < all.size(); ++g)
+      for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(all[g].size()), 150)) face_rows[g].push_back(all[g][static_cast<std::size_t>(k)]);
+  }
+  const double refine_cell = R.dense_h * R.dense_h * static_cast<double>(core_dense.size()) / static_cast<double>(std::max<Eigen::Index>(1, refine_pts.rows()));
+  auto reverse_pairs = [&](const Eigen::Matrix4d& H, double s, std::vector<Eigen::Vector3d>* ra, std::vector<Eigen::Vector3d>* rb) -> double {
+    if (refine_face.size() != static_cast<std::size_t>(refine_pts.rows())) return 0;
+    std::unordered_map<int, std::vector<int>> on;  // target face -> refine points landing on it
+    std::vector<char> wanted(whole_faces.target_area.size(), 0);
+    std::vector<Eigen::Vector3d> mapped(refine_face.size());
+    const double land = 2 * T.dense_h + 0.01 * L * s;
+    for (std::size_t k = 0; k < refine_face.size(); ++k) {
+      mapped[k] = apply_transform(H, refine_pts.row(static_cast<Eigen::Index>(k)).transpose());
+      double d2;
+      const int j = T.dense_tree->nearest(mapped[k], &d2);
+      if (j < 0 || !(std::sqrt(d2) <= land)) continue;
+      const int g = T.dense.face_ids(j);
+      if (g <= 0 || static_cast<std::size_t>(g) >= wanted.size()) continue;
+      on[g].push_back(static_cast<int>(k));
+      const int f = refine_face[k];
+      if (f > 0 && static_cast<std::size_t>(f) < whole_faces.checked.size() && whole_faces.checked[static_cast<std::size_t>(f)]) wanted[static_cast<std::size_t>(g)] = 1;
+    }
+    double sum = 0;
+    int n = 0;
+    for (const auto& [g, ks] : on) {
+      if (!wanted[static_cast<std::size_t>(g)]) continue;
+      const double mapped_area = static_cast<double>(ks.size()) * refine_cell * s * s;
+      if (whole_faces.target_area[static_cast<std::size_t>(g)] > 4 * mapped_area) continue;  // not this feature's face
+      for (const int t : face_rows[static_cast<std::size_t>(g)]) {
+        const Eigen::Vector3d y = T.dense.points.row(t).transpose();
+        double best = INFINITY;
+        int bk = -1;
+        for (const int k : ks) {
+          const double d = (mapped[static_cast<std::size_t>(k)] - y).squaredNorm();
+          if (d < best) { best = d; bk = k; }
+        }
+        sum += std::min(std::sqrt(best) / s, normal_penalty);
+        ++n;
+        if (ra && bk >= 0) {
+          ra->push_back(refine_pts.row(bk).transpose());
+          rb->push_back(y);
+        }
+      }
+    }
+    return n ? sum / n : 0.0;
+  };
+  auto target_distance = [&](const Eigen::Vector3d& y) {
+    double d2;
+    return T.dense_tree->nearest(y, &d2) < 0 ? INFINITY : std::sqrt(d2);
+  };
+
   const bool debug = std::getenv("FE_DEBUG") != nullptr;  // trace of every RANSAC outcome on stderr
   const KdTree3 tkey_tree(T.keys);
   std::vector<int> near_keys;
@@ -863,58 +964,98 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         const Eigen::Matrix4d H_unrefined = H;
         const double rms_unrefined = rms_on_surface(H);
         {
-          best_cost_now = INFINITY;
-          double c0 = cost(H);
-          const double search_radius = 0.25 * L;
-          std::vector<int> near_idx;
-          std::vector<float> near_d2;
-          for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
-            std::vector<Eigen::Vector3d> a, b;
-            std::vector<double> e;
-            for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
-              const Eigen::Vector3d x = refine_pts.row(k);
-              const Eigen::Vector3d y = apply_transform(H, x);
-              // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
-              // faces instead of being dropped, and pull the fit out to full length)
-              const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
-              double d2;
-              int j = T.dense_tree->nearest(y, &d2);
-              if (j < 0) continue;
-              if (nm.dot(T.dense_normals.row(j)) < 0.5) {
-                T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
-                j = -1;
-                d2 = INFINITY;
-                for (std::size_t c = 0; c < near_idx.size(); ++c)
-                  if (near_d2[c] < d2 && nm.dot(T.dense_normals.row(near_idx[c])) >= 0.5) { j = near_idx[c]; d2 = near_d2[c]; }
-                if (j < 0) continue;
-              }
-              const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
-              a.push_back(x);
-              b.push_back(y - (y - q).dot(n) * n);
-              e.push_back(std::sqrt(d2));
-            }
-            if (a.size() < 20) break;
-            std::vector<double> sorted = e;
-            std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-            const double cut = std::max(3.0 * sorted[sorted.size() / 2], 2.0 * T.dense_h);
-            Points A(static_cast<Eigen::Index>(a.size()), 3), B(static_cast<Eigen::Index>(a.size()), 3);
-            Eigen::Index n = 0;
-            for (std::size_t k = 0; k < a.size(); ++k)
-              if (e[k] <= cut) { A.row(n) = a[k]; B.row(n++) = b[k]; }
-            A.conservativeResize(n, 3);
-            B.conservativeResize(n, 3);
-            Eigen::Matrix4d H2;
-            bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
-            if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
-            if (!ok) break;
+          // one refinement from H0; with `grow`, reverse pairs let it grow over whole target faces
+          struct Refined {
+            Eigen::Matrix4d H;
+            double s, cost, reverse_start, reverse;
+          };
+          auto refine = [&](const Eigen::Matrix4d& H0, double s0, bool grow) -> Refined {
+            Eigen::Matrix4d H = H0;
+            double s = s0;
             best_cost_now = INFINITY;
-            const double c1 = cost(H2);
-            if (!(c1 < c0)) break;
-            H = H2;
-            c0 = c1;
+            double c0 = cost(H);
+            double r0 = grow ? reverse_pairs(H, s, nullptr, nullptr) : 0.0;
+            const double r_start = r0;
+            const double search_radius = 0.25 * L;
+            std::vector<int> near_idx;
+            std::vector<float> near_d2;
+            for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
+              std::vector<Eigen::Vector3d> a, b;
+              std::vector<double> e;
+              for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
+                const Eigen::Vector3d x = refine_pts.row(k);
+                const Eigen::Vector3d y = apply_transform(H, x);
+                // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
+                // faces instead of being dropped, and pull the fit out to full length)
+                const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
+                double d2;
+                int j = T.dense_tree->nearest(y, &d2);
+                if (j < 0) continue;
+                if (nm.dot(T.dense_normals.row(j)) < 0.5) {
+                  T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
+                  j = -1;
+                  d2 = INFINITY;
+                  for (std::size_t c = 0; c < near_idx.size(); ++c)
+                    if (near_d2[c] < d2 && nm.dot(T.dense_normals.row(near_idx[c])) >= 0.5) { j = near_idx[c]; d2 = near_d2[c]; }
+                  if (j < 0) continue;
+                }
+                const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
+                a.push_back(x);
+                b.push_back(y - (y - q).dot(n) * n);
+                e.push_back(std::sqrt(d2));
+              }
+              if (a.size() < 20) break;
+              std::vector<double> sorted = e;
+              std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+              const double cut = std::max(3.0 * sorted[sorted.size() / 2], 2.0 * T.dense_h);
+              Points A(static_cast<Eigen::Index>(a.size()), 3), B(static_cast<Eigen::Index>(a.size()), 3);
+              Eigen::Index n = 0;
+              for (std::size_t k = 0; k < a.size(); ++k)
+                if (e[k] <= cut) { A.row(n) = a[k]; B.row(n++) = b[k]; }
+              std::vector<Eigen::Vector3d> ra, rb;
+              if (r0 > 0) reverse_pairs(H, s, &ra, &rb);
+              // as much weight as the forward pairs (which hold a planar face in place but let it slide)
+              const int copies = ra.empty() ? 0 : std::max<int>(1, static_cast<int>(std::lround(static_cast<double>(n) / static_cast<double>(ra.size()))));
+              A.conservativeResize(n + copies * static_cast<Eigen::Index>(ra.size()), 3);
+              B.conservativeResize(A.rows(), 3);
+              for (int c = 0; c < copies; ++c)
+                for (std::size_t k = 0; k < ra.size(); ++k) {
+                  A.row(n) = ra[k].transpose();
+                  B.row(n++) = rb[k].transpose();
+                }
+              Eigen::Matrix4d H2;
+              bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
+              if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
+              if (!ok) break;
+              best_cost_now = INFINITY;
+              const double c1 = cost(H2);
+              double s2 = s;
+              bounds_ok(H2, &s2);
+              const double r1 = r0 > 0 ? reverse_pairs(H2, s2, nullptr, nullptr) : 0.0;
+              if (!(c1 + r1 < c0 + r0)) break;
+              H = H2;
+              if (grow) s = s2;
+              c0 = c1;
+              r0 = r1;
+            }
+            return {H, s, c0, r_start, r0};
+          };
+          const Refined tight = refine(H, s, false);
+          Refined chosen_fit = tight;
+          if (!refine_face.empty()) {
+            // grown over whole faces: kept if its acceptance error stays small, or near the tight fit's
+            const Refined grown = refine(H, s, true);
+            if (grown.reverse < 0.8 * grown.reverse_start) {
+              const double eg = quantile_error(grown.H), et = quantile_error(tight.H);
+              if (eg <= std::max(1.1 * et, 0.01 * L)) chosen_fit = grown;
+            }
           }
+          H = chosen_fit.H;
+          s = chosen_fit.s;
+          const bool grew = chosen_fit.reverse < 0.8 * chosen_fit.reverse_start;
           double rh = rms_on_surface(H);  // RMS of the current H, kept up to date below
-          if (rh > rms_unrefined) {
+          // a fit grown over whole faces may lie a little less tightly on them: kept within bounds
+          if (rh > (grew ? std::max(1.25 * rms_unrefined, rms_unrefined + 0.5 * T.dense_h) : rms_unrefined)) {
             H = H_unrefined;
             rh = rms_unrefined;
           }
@@ -991,13 +1132,23 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         agree += ok ? 1 : 0;
       }
       const double key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<std::size_t>(1, core_keys.size()));
-      const bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
+      bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
+      double obstructed = 0;
+      if ((accepted || debug) && p.max_obstructed < 1) {
+        obstructed = clearance.obstructed(H, target_distance, 0.5 * s * R.dense_h + T.dense_h, 3 * R.dense_h + 2 * err);
+        accepted = accepted && obstructed <= p.max_obstructed;
+      }
+      double partial_faces = 0;
+      if ((accepted || debug) && whole_faces.reference) {
+        partial_faces = whole_faces.partial_share(H, tol + T.dense_h, kWholeFaceFill);
+        accepted = accepted && partial_faces <= p.max_partial_faces;
+      }
       const Deformation df = deformation(H, rlo, rhi);
       if (debug) {
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
-        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f it %d -> %s\n",
+        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f obstructed %.2f partial %.2f it %d -> %s\n",
                      order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), err / L, score, key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
-                     df.perspective, rr.iterations, accepted ? "accepted" : "rejected");
+                     df.perspective, obstructed, partial_faces, rr.iterations, accepted ? "accepted" : "rejected");
         const Eigen::Vector3d rc = 0.5 * (rlo + rhi);
         const Eigen::Matrix3d J = transform_jacobian(H, rc);
         const Eigen::Vector3d m = apply_transform(H, rc);
@@ -1047,6 +1198,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       mt.stretch_min = df.scale_min;
       mt.stretch_max = df.scale_max;
       mt.perspective = df.perspective;
+      mt.obstructed = obstructed;
       // Covered target region: dense samples near the mapped reference.
       const double cov = tol + R.dense_h * s;
       const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(cov);

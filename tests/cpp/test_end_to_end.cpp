@@ -2,12 +2,14 @@
 // The models folder comes from the FE_MODELS environment variable (set by CTest).
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
+#include "featureextract/reference.h"
 
 #include "test_util.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 
@@ -205,6 +207,40 @@ TEST(EndToEnd, StlRegionEarIsJudgedAwayFromItsClippedBorder) {
     ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
   }
   for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+}
+
+TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
+  // MFCAD part 5-6-6-6-14-23 (../shared/data/mfcad): steps (Face5+Face16, Face17+Face18 larger and
+  // of other proportions) and a through slot (Face3, Face6, Face7: two walls and a floor). The step
+  // picked as faces lay on the slot twice: once on part of the slot's floor, and, grown over the
+  // whole floor, once with the slot's other wall standing where the step is open.
+  const std::string part = std::string(FE_MFCAD_DIR) + "/5-6-6-6-14-23.step";
+  const fe::TriangleMesh tgt = fe::read_shape(part);
+  std::vector<char> drop(static_cast<std::size_t>(tgt.triangles.rows()), 1);
+  for (Eigen::Index t = 0; t < tgt.triangles.rows(); ++t)
+    if (tgt.face_ids(t) == 5 || tgt.face_ids(t) == 16) drop[static_cast<std::size_t>(t)] = 0;
+  const fe::TriangleMesh ref = fe::without_triangles(tgt, drop);
+  const fe::TriangleMesh target = fe::read_shape(part, fe::tessellation_for_feature(ref.diagonal()));
+  auto on_slot = [](const fe::Match& m) {
+    return std::find(m.faces.begin(), m.faces.end(), 6) != m.faces.end() || std::find(m.faces.begin(), m.faces.end(), 3) != m.faces.end() ||
+           std::find(m.faces.begin(), m.faces.end(), 7) != m.faces.end();
+  };
+  auto on_faces = [](const fe::Match& m, int a, int b) {
+    return std::find(m.faces.begin(), m.faces.end(), a) != m.faces.end() && std::find(m.faces.begin(), m.faces.end(), b) != m.faces.end();
+  };
+  const fe::Result r = fe::extract(ref, target);
+  int steps = 0;
+  for (const fe::Match& m : r.matches) {
+    EXPECT_FALSE(on_slot(m)) << "a match on the slot at " << m.center.transpose();
+    steps += on_faces(m, 5, 16) || on_faces(m, 17, 18);
+  }
+  EXPECT_EQ(steps, 2);  // the reference's own step, and the larger one, covered whole
+  // without the two checks the slot is taken for a step
+  fe::Params off;
+  off.max_obstructed = 1;
+  off.max_partial_faces = 1;
+  const fe::Result loose = fe::extract(ref, target, off);
+  EXPECT_TRUE(std::any_of(loose.matches.begin(), loose.matches.end(), on_slot));
 }
 
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {

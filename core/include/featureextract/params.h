@@ -56,6 +56,9 @@ struct Params {
   double accept_error = 0.05;        ///< accept if that error <= this x L x scale
   double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target
   double min_key_agreement = 0.5;    ///< accept if this fraction of reference key points lands near target key points of similar SI
+  double max_obstructed = 0.2;       ///< accept if at most this fraction of the reference's free-space rays meets target surface (1 = off)
+  double clearance_margin = 0.08;    ///< free-space rays run this far (x L) past the reference's box
+  double max_partial_faces = 0.2;    ///< accept if at most this share of the reference's whole faces lands on part of a larger target face (1 = off)
   double key_si_tolerance = 0.125;   ///< shape index difference allowed for that agreement
   double volume_ratio_min = 0.2;     ///< bounds of |det| of the linear part (volume expansion ratio)
   double volume_ratio_max = 20.0;

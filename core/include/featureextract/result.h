@@ -26,6 +26,7 @@ struct Match {
   double key_agreement = 0;    ///< fraction of reference key points landing near target key points of similar SI
   double stretch_min = 1, stretch_max = 1;  ///< smallest and largest singular value of H's Jacobian at the feature's center
   double perspective = 0;      ///< largest |w - 1| of H over the reference feature's box
+  double obstructed = 0;       ///< fraction of the reference's free-space rays that meet target surface (see clearance.h)
   bool mirrored = false;       ///< found by the mirror image of the reference: det of H's linear part < 0
 };
 
