@@ -6,8 +6,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <unordered_map>
 
 namespace fe {
@@ -77,8 +75,6 @@ double FaceCoverCheck::partial_share(const Eigen::Matrix4d& H, double tol, doubl
     mapped_area[g] += a * cell;
     lands[k] = g;
   }
-  if (std::getenv("FE_DEBUG_FACES"))
-    for (const auto& [g, a] : mapped_area) std::fprintf(stderr, "   face %d: mapped %.3f of %.3f\n", g, a, target_area[static_cast<std::size_t>(g)]);
   int checked_rows = 0, partial = 0;
   for (std::size_t k = 0; k < rows.size(); ++k) {
     const int f = R.face_ids.size() ? R.face_ids(rows[k]) : 0;

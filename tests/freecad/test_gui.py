@@ -115,6 +115,11 @@ def main():
     check(ticks > 10, f"UI kept processing events during the run ({ticks} polls)")
     results = api.results_for(part)
     check(len(results) == 5, f"5 result objects ({len(results)})")
+    # shown, not greyed, in the tree (issue 11, item 4): the tree greys an object whose view
+    # provider is not shown, whatever its Visibility says
+    wait_for(lambda: False, 0.3)
+    check(all(r.ViewObject.Visibility and r.ViewObject.isVisible() for r in results),
+          f"results shown in the tree ({[(r.ViewObject.Visibility, r.ViewObject.isVisible()) for r in results]})")
     if os.environ.get("FE_WINDOW_SHOT"):  # the whole window with the task panel, for the docs
         Gui.Selection.clearSelection()
         Gui.ActiveDocument.ActiveView.viewIsometric()

@@ -184,6 +184,11 @@ class ViewProviderResult(_Stateless):
 
     def attach(self, vobj):
         self.Object = vobj.Object
+        # the "Default" display mode must exist as a node: without one FreeCAD takes the object for
+        # hidden and greys it in the tree, though its Visibility is True (its look is the target's
+        # face colors, so the node is empty)
+        from pivy import coin
+        vobj.addDisplayMode(coin.SoGroup(), "Default")
 
     def getIcon(self):
         return icon("Extract")
