@@ -162,12 +162,16 @@ def main():
                 votes += d_match < d_grey
         check(votes >= 5, f"{r.Label}: pixels at its center carry its color ({votes}/9)")
 
-    # selecting a result selects its faces; clearing colors
+    # selecting a result keeps it selected, so that the property editor shows its score, errors and
+    # scale (issue 11, item 5); double-clicking it selects its faces on the part; clearing colors
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(results[0])
     wait_for(lambda: False, 0.3)
+    check([s.Object for s in Gui.Selection.getSelectionEx()] == [results[0]], "a selected result stays selected")
+    results[0].ViewObject.Proxy.doubleClicked(results[0].ViewObject)
+    wait_for(lambda: False, 0.3)
     sel = [s for s in Gui.Selection.getSelectionEx() if s.Object == part]
-    check(bool(sel) and set(sel[0].SubElementNames) == {f"Face{f}" for f in results[0].Faces}, "result selects its faces")
+    check(bool(sel) and set(sel[0].SubElementNames) == {f"Face{f}" for f in results[0].Faces}, "double-clicking a result selects its faces")
     Gui.runCommand("FE_ClearColors")
     wait_for(lambda: False, 0.3)
     base = part.ViewObject.ShapeColor[:3]

@@ -255,30 +255,6 @@ class ClearColors:
                 r.ViewObject.Visibility = False
 
 
-class _SelectionObserver:
-    """Selecting a result in the tree selects its faces on the target."""
-
-    def addSelection(self, doc, obj, sub, pnt):
-        o = App.getDocument(doc).getObject(obj)
-        if o is not None and getattr(o, "Proxy", None).__class__.__name__ == "ExtractionResult" and not sub:
-            from PySide import QtCore
-            from .objects import select_faces
-            QtCore.QTimer.singleShot(0, lambda: select_faces(o))
-
-
-_observer = None
-
-
-def watch_selection(on):
-    global _observer
-    if on and _observer is None:
-        _observer = _SelectionObserver()
-        Gui.Selection.addObserver(_observer)
-    elif not on and _observer is not None:
-        Gui.Selection.removeObserver(_observer)
-        _observer = None
-
-
 COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
             "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_ClearColors": ClearColors}
 

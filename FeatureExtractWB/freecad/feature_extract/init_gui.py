@@ -15,14 +15,6 @@ class FeatureExtractWorkbench(Gui.Workbench):
         self.appendToolbar("FeatureExtract", names)
         self.appendMenu("&FeatureExtract", names)
 
-    def Activated(self):
-        from . import commands
-        commands.watch_selection(True)
-
-    def Deactivated(self):
-        from . import commands
-        commands.watch_selection(False)
-
     def GetClassName(self):
         return "Gui::PythonWorkbench"
 
