@@ -851,8 +851,13 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
     std::vector<KeyPointPair> pairs = cluster_pairs[order[oi]];
     int failures = 0;
+    // progress: clusters done, and within this one the share of its pairs explained or dropped
+    const double initial_pairs = static_cast<double>(std::max<std::size_t>(1, pairs.size()));
+    auto ransac_fraction = [&] {
+      return (static_cast<double>(oi) + 1.0 - static_cast<double>(pairs.size()) / initial_pairs) / static_cast<double>(order.size());
+    };
     while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures && found.size() < 500) {
-      report(progress, "ransac", static_cast<double>(oi) / static_cast<double>(order.size()));
+      report(progress, "ransac", ransac_fraction());
       Points rp(static_cast<Eigen::Index>(pairs.size()), 3), tp(static_cast<Eigen::Index>(pairs.size()), 3);
       for (std::size_t i = 0; i < pairs.size(); ++i) {
         rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(pairs[i].ref);
@@ -920,8 +925,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         }
       }
       best_cost_now = INFINITY;  // RANSAC on its own (the one-pair placements must not cut its search short)
-      RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size())); });
-      if (progress && !progress("ransac", static_cast<double>(oi) / static_cast<double>(order.size()))) throw Cancelled();
+      RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", ransac_fraction()); });
+      if (progress && !progress("ransac", ransac_fraction())) throw Cancelled();
       if (!rr.found && pose_pair < 0) {
         if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), rr.iterations);
         break;

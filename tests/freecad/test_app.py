@@ -47,6 +47,27 @@ class App_(unittest.TestCase):
     def tearDown(self):
         App.closeDocument(self.doc.Name)
 
+    def test_progress_is_one_fraction_of_the_whole_run(self):
+        # issue 11, item 9: the bar restarted at 0 for every stage and sat at 'ransac 0%' until done
+        seen = []
+        api.compute(self.part, os.path.join(MODELS, "rib_reference.step"), progress=lambda s, f: seen.append((s, f)) or True, seed=1)
+        values = [f for _, f in seen]
+        self.assertEqual(seen[0][0], "tessellating")
+        self.assertLessEqual(values[0], 0.05)
+        self.assertEqual(values[-1], 1.0)
+        self.assertTrue(all(b >= a for a, b in zip(values, values[1:])), "never goes back")
+        self.assertGreater(len(set(values)), 15)
+        ransac = {f for s, f in seen if s == "ransac"}
+        self.assertGreater(len(ransac), 3, "RANSAC moves the bar while it runs")
+        # the mirror image's pass goes on in the rest of the bar (a mirrored L pad reference)
+        pads = self.doc.addObject("Part::Feature", "Pads")
+        pads.Shape = Part.read(os.path.join(MODELS, "l_pads.step"))
+        seen.clear()
+        api.compute(pads, os.path.join(MODELS, "l_pad_reference.brep"), progress=lambda s, f: seen.append((s, f)) or True, seed=1)
+        values = [f for _, f in seen]
+        self.assertTrue(all(b >= a for a, b in zip(values, values[1:])))
+        self.assertGreater(sum(1 for s, _ in seen if s.startswith("reference")), 4)  # two passes
+
     def test_reference_from_faces_extract_save_reopen(self):
         faces = rib_faces(self.part.Shape, 60.0)
         self.assertGreaterEqual(len(faces), 15)
