@@ -51,7 +51,8 @@ class Tessellate:
                                                        "and key points (red) of the selected solid")}
 
     def IsActive(self):
-        return App.ActiveDocument is not None
+        from . import background
+        return App.ActiveDocument is not None and background.running is None
 
     def Activated(self):
         from . import overlay
@@ -63,23 +64,38 @@ class Tessellate:
             overlay.hide(obj)
             return
         import featureextract as fx
-        from . import api
-        from PySide import QtCore, QtGui
+        from . import api, background
         refs = _references(obj.Document)
-        try:
-            QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
+        try:  # the shape is read here, on the GUI thread; describing it (seconds on a real part) is not
             L = api.reference_shape(refs[0]).BoundBox.DiagonalLength if refs else obj.Shape.BoundBox.DiagonalLength / 5
-            mesh = api.mesh_of_shape(api.target_shape(obj), obj.Label, L)
-            d = fx.describe(mesh, fx.Description.Role.Target, L, fx.Params())
-            overlay.show(obj, d)
+            brep = api.target_shape(obj).exportBrepToString()
         except Exception as e:  # noqa: BLE001  (shown to the user as a sentence)
             report_error(str(e))
             return
-        finally:
-            QtGui.QApplication.restoreOverrideCursor()
-        App.Console.PrintMessage(
-            f"FeatureExtract: {obj.Label}: {mesh.triangles.shape[0]} triangles, {d.dense_points.shape[0]} dense and "
-            f"{d.sparse_points.shape[0]} sparse samples, {d.key_points.shape[0]} key points (feature size {L:.2f})\n")
+
+        def work(progress):
+            rel, absolute = fx.tessellation_for_feature(L)
+            mesh = fx.read_brep_string(brep, obj.Label, rel, absolute)
+            return mesh, fx.describe(mesh, fx.Description.Role.Target, L, fx.Params(), progress)
+
+        def done(kind, value):
+            if kind == "error":
+                report_error(value)
+                return
+            try:
+                alive = obj.Document is not None
+            except Exception:  # noqa: BLE001  (the object was deleted meanwhile)
+                alive = False
+            if kind == "cancelled" or not alive:
+                return
+            mesh, d = value
+            overlay.show(obj, d)
+            App.Console.PrintMessage(
+                f"FeatureExtract: {obj.Label}: {mesh.triangles.shape[0]} triangles, {d.dense_points.shape[0]} dense and "
+                f"{d.sparse_points.shape[0]} sparse samples, {d.key_points.shape[0]} key points (feature size {L:.2f})\n")
+
+        background.start(translate("FeatureExtract", "Show samples and key points"),
+                         translate("FeatureExtract", "Sampling and describing {name}...").format(name=obj.Label), work, done)
 
 
 class PickReference:
@@ -163,11 +179,11 @@ class PlaceMesh:
                                                        "colored by element quality")}
 
     def IsActive(self):
-        return App.ActiveDocument is not None and PlaceMesh.running is None
+        from . import background
+        return App.ActiveDocument is not None and background.running is None
 
     def Activated(self, feature_dir=None):
-        from PySide import QtCore, QtGui
-        import threading
+        from PySide import QtGui
         from . import REPO, api
         target = _selected_solid()
         if target is None:
@@ -186,37 +202,10 @@ class PlaceMesh:
         except Exception as e:  # noqa: BLE001
             report_error(str(e))
             return
-        dialog = QtGui.QProgressDialog(translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
-                                       translate("FeatureExtract", "Cancel"), 0, 100, Gui.getMainWindow())
-        dialog.setWindowTitle(translate("FeatureExtract", "Place feature FE meshes"))
-        dialog.setMinimumDuration(0)
-        state = {"progress": 0.0, "outcome": None, "cancel": False}
+        from . import background
 
-        def progress(stage, fraction):
-            state["progress"] = fraction
-            return not state["cancel"]
-
-        def work():
-            try:
-                state["outcome"] = ("ok", api.run(job, progress))
-            except fx.Cancelled:
-                state["outcome"] = ("cancelled", None)
-            except Exception as e:  # noqa: BLE001
-                state["outcome"] = ("error", str(e))
-
-        thread = threading.Thread(target=work, daemon=True)
-        timer = QtCore.QTimer()
-
-        def poll():
-            dialog.setValue(int(100 * state["progress"]))
-            if dialog.wasCanceled():
-                state["cancel"] = True
-            if thread.is_alive():
-                return
-            timer.stop()
-            dialog.close()
+        def done(kind, value):
             PlaceMesh.running = None
-            kind, value = state["outcome"] or ("error", "the run stopped without a result")
             if kind == "ok":
                 _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
                     f".getObject('{target.Name}'), {feature_dir!r})")
@@ -229,10 +218,10 @@ class PlaceMesh:
             else:
                 App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
 
-        timer.timeout.connect(poll)
-        PlaceMesh.running = (thread, timer, dialog, state)
-        thread.start()
-        timer.start(100)
+        PlaceMesh.running = background.start(
+            translate("FeatureExtract", "Place feature FE meshes"),
+            translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
+            lambda progress: api.run(job, progress), done)
 
 
 class ClearColors:
