@@ -112,6 +112,21 @@ def main():
     Gui.runCommand("FE_Extract")
     panel = taskpanel.current
     check(panel is not None, "extract task panel opens")
+    # Advanced at the panel's default width (issue 11, item 6): readable labels grouped by the
+    # paper's steps, every field inside the panel (no horizontal scrolling, no clipped edge)
+    panel.advanced.setChecked(True)
+    wait_for(lambda: False, 0.5)
+    labels = [w.text() for w in panel.scroll.widget().findChildren(QtGui.QLabel)]
+    check(labels and not any("_" in t for t in labels), f"readable parameter labels ({[t for t in labels if '_' in t][:3]})")
+    boxes = [b.title() for b in panel.scroll.widget().findChildren(QtGui.QGroupBox)]
+    check(boxes[:2] == ["1. Sampling", "2. Shape index and SHOT"] and "Other" not in boxes, f"parameters grouped by step ({boxes})")
+    view = panel.scroll.viewport()
+    clipped = [n for n, w in panel.fields.items() if w.mapTo(panel.scroll.widget(), QtCore.QPoint(w.width(), 0)).x() > view.width()]
+    check(view.width() > 150 and not clipped, f"every field within the panel's {view.width()} px "
+          f"({[(n, panel.fields[n].width(), panel.fields[n].mapTo(panel.scroll.widget(), QtCore.QPoint(0, 0)).x()) for n in clipped[:3]]})")
+    if os.environ.get("FE_PANEL_SHOT"):  # the panel as the user sees it, for the docs
+        panel.form.grab().save(os.environ["FE_PANEL_SHOT"])
+    panel.advanced.setChecked(False)
     n1 = len(doc.Objects)
     panel.run()
     panel.request_cancel()
