@@ -266,6 +266,8 @@ def main():
         check(not bad, f"save and reopen with {what}: no error in the report view {bad[:2]}")
         if d is doc:
             check(len(api.results_for(again.getObject("Part"))) == 5, "results intact after reopening")
+        wait_for(lambda: False, 0.5)  # deferred recolors
+        check(not Gui.getDocument(again.Name).Modified, f"reopened document with {what} is not marked modified")
 
 
 try:

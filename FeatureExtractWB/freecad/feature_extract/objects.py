@@ -124,6 +124,16 @@ def color_by_quality(obj):
     return True
 
 
+def _same_colors(have, want):
+    """Colors equal to 8 bits a channel (as the document stores them), lists or {id: color} dicts."""
+    if isinstance(want, dict):
+        if not isinstance(have, dict) or set(have) != set(want):
+            return False
+        have, want = [have[k] for k in sorted(have)], [want[k] for k in sorted(want)]
+    have, want = list(have), list(want)
+    return len(have) == len(want) and all(abs(a - b) <= 1.5 / 255 for x, y in zip(have, want) for a, b in zip(x[:3], y[:3]))
+
+
 def face_names(result_obj):
     return [f"Face{f}" for f in result_obj.Faces]
 
@@ -149,7 +159,8 @@ def recolor(target_obj):
             for f in r.Faces:
                 if 1 <= f <= n:
                     colors[f - 1] = tuple(r.Color[:3]) + (0.0,)
-        vo.DiffuseColor = colors
+        if not _same_colors(vo.DiffuseColor, colors):  # setting the same colors would mark the document modified
+            vo.DiffuseColor = colors
 
     QtCore.QTimer.singleShot(0, apply)
 
