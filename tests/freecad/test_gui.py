@@ -79,6 +79,44 @@ def main():
     refs = [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
     check(len(refs) == 1 and list(refs[0].Faces) == faces, f"reference made from {len(faces)} picked faces")
 
+    # a macro recorded by FreeCAD's recorder replays (issue 11, item 2): the recorder writes `import X`
+    # for the module that registered the commands, which was `import commands` and failed on replay
+    macro_dir = tempfile.mkdtemp()
+    prefs = App.ParamGet("User parameter:BaseApp/Preferences/Macro")
+    old_path = prefs.GetString("MacroPath")
+    prefs.SetString("MacroPath", macro_dir)
+
+    def fill_recorder():
+        dlg = QtGui.QApplication.activeModalWidget()
+        if dlg is None:
+            return QtCore.QTimer.singleShot(100, fill_recorder)
+        dlg.findChild(QtGui.QLineEdit, "lineEditPath").setText("fe_macro")
+        dlg.findChild(QtGui.QPushButton, "buttonStart").click()
+
+    QtCore.QTimer.singleShot(100, fill_recorder)
+    Gui.runCommand("Std_DlgMacroRecord")
+    wait_for(lambda: False, 0.3)
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(part, faces)
+    n_refs = len([o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"])
+    commands.last_error = None
+    Gui.Command.get("FE_PickReference").getAction()[0].trigger()  # as a click on the toolbar button
+    wait_for(lambda: False, 0.3)
+    Gui.runCommand("Std_MacroStopRecord")
+    prefs.SetString("MacroPath", old_path)
+    macro = os.path.join(macro_dir, "fe_macro.FCMacro")
+    text = open(macro).read() if os.path.exists(macro) else ""
+    check("FE_PickReference" in text and "import commands" not in text, f"recorded macro: {[l for l in text.splitlines() if 'import' in l or 'FE_' in l]}")
+    try:
+        # replayed as FreeCAD runs a macro: in its console's namespace, where App and Gui are defined
+        exec(compile(text, macro, "exec"), {"__name__": "__main__", "App": App, "Gui": Gui})
+        replayed = None
+    except Exception as e:  # noqa: BLE001
+        replayed = f"{type(e).__name__}: {e}"
+    refs_now = len([o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"])
+    check(replayed is None and refs_now == n_refs + 2, f"recorded macro replays ({replayed}; references {n_refs} -> {refs_now})")
+
+
     # the panel offers the reference picked last, and counts faces in words (issue 11)
     curved = [f for f in faces if type(part.Shape.getElement(f).Surface).__name__ != "Plane"][:1]
     newer = api.make_reference(part, curved, label="Newer")

@@ -23,7 +23,9 @@ def report_error(message):
 
 def _do(command):
     """Runs (and records for macros) one API call; a failure becomes a message, not a traceback."""
-    Gui.addModule("freecad.feature_extract.api")
+    # the import is recorded every time: Gui.addModule writes it once per session, so a macro
+    # recorded after the first use would lack it and stop with "name 'freecad' is not defined"
+    Gui.doCommand("import freecad.feature_extract.api")
     try:
         Gui.doCommand(command)
     except Exception as e:  # noqa: BLE001
@@ -247,8 +249,3 @@ class ClearColors:
 COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
             "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_ClearColors": ClearColors}
 
-
-def register():
-    for name, cls in COMMANDS.items():
-        Gui.addCommand(name, cls())
-    return list(COMMANDS)

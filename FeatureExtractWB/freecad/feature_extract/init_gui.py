@@ -10,8 +10,8 @@ class FeatureExtractWorkbench(Gui.Workbench):
     Icon = icon("FeatureExtract")
 
     def Initialize(self):
-        from . import commands  # lazy: the C++ core is loaded only when the workbench is used
-        names = commands.register()
+        import fe_commands  # registers the commands; lazy: the C++ core is loaded when the workbench is used
+        names = fe_commands.NAMES
         self.appendToolbar("FeatureExtract", names)
         self.appendMenu("&FeatureExtract", names)
 
