@@ -2,7 +2,6 @@
 #include "featureextract/extract.h"
 
 #include "featureextract/clearance.h"
-
 #include "featureextract/geometry.h"
 #include "featureextract/reference.h"
 #include "kdtree.h"
@@ -648,14 +647,12 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   }
   const double normal_penalty = 2.0 * p.accept_error * L;
   Points refine_pts, refine_nrm;
-  {
-    const std::vector<Eigen::Index> dr = sub_rows(core_dense, 800);
-    refine_pts.resize(static_cast<Eigen::Index>(dr.size()), 3);
-    refine_nrm.resize(refine_pts.rows(), 3);
-    for (std::size_t k = 0; k < dr.size(); ++k) {
-      refine_pts.row(static_cast<Eigen::Index>(k)) = R.dense.points.row(dr[k]);
-      refine_nrm.row(static_cast<Eigen::Index>(k)) = R.dense_normals.row(dr[k]);
-    }
+  const std::vector<Eigen::Index> refine_rows = sub_rows(core_dense, 800);  // rows of R.dense behind refine_pts
+  refine_pts.resize(static_cast<Eigen::Index>(refine_rows.size()), 3);
+  refine_nrm.resize(refine_pts.rows(), 3);
+  for (std::size_t k = 0; k < refine_rows.size(); ++k) {
+    refine_pts.row(static_cast<Eigen::Index>(k)) = R.dense.points.row(refine_rows[k]);
+    refine_nrm.row(static_cast<Eigen::Index>(k)) = R.dense_normals.row(refine_rows[k]);
   }
   const std::vector<Eigen::Index> dense_rows = sub_rows(core_dense, 1500);
   const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
@@ -746,16 +743,26 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     return errs[q];
   };
 
+  // Distance from a point to the nearest dense sample of a shape (index in *j when asked).
+  auto nearest_distance = [](const KdTree3& tree) {
+    return [&tree](const Eigen::Vector3d& y, int* j = nullptr) {
+      double d2;
+      const int k = tree.nearest(y, &d2);
+      if (j) *j = k;
+      return k < 0 ? INFINITY : std::sqrt(d2);
+    };
+  };
+  const auto reference_distance = nearest_distance(*R.dense_tree);
+  const auto target_distance = nearest_distance(*T.dense_tree);
   // Free space in front of the reference's surface (clearance.h), from its core samples.
   const Clearance clearance(R.dense.points, R.dense_normals, sub_rows(core_dense, 400),
-                            [&](const Eigen::Vector3d& x) {
-                              double d2;
-                              return R.dense_tree->nearest(x, &d2) < 0 ? INFINITY : std::sqrt(d2);
-                            },
-                            R.box_min, R.box_max, R.dense_h, p.clearance_margin * L);
+                            [&](const Eigen::Vector3d& x) { return reference_distance(x); }, R.box_min, R.box_max, R.dense_h,
+                            p.clearance_margin * L);
   // Whole faces (clearance.h): reference faces all of whose samples are feature, with enough samples
   // to measure their area, must land on whole target faces.
   FaceCoverCheck whole_faces;
+  std::vector<int> refine_face;             // reference face of each refine point (reverse pairs, below)
+  std::vector<std::vector<int>> face_rows;  // target face -> its dense samples, at most 150 (reverse pairs)
   if (R.dense.face_ids.size() && T.dense.face_ids.size() && p.max_partial_faces < 1) {
     const int nf = std::max(R.dense.face_ids.maxCoeff(), 0) + 1;
     std::vector<int> in_core(static_cast<std::size_t>(nf), 0), all(static_cast<std::size_t>(nf), 0);
@@ -767,15 +774,21 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     whole_faces.rows = core_dense;
     whole_faces.reference_spacing = R.dense_h;
     whole_faces.target_faces = &T.dense.face_ids;
-    whole_faces.target_area.assign(static_cast<std::size_t>(std::max(T.dense.face_ids.maxCoeff(), 0) + 1), 0.0);
+    std::vector<std::vector<int>> on_face(static_cast<std::size_t>(std::max(T.dense.face_ids.maxCoeff(), 0) + 1));
     for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
-      if (T.dense.face_ids(j) > 0) whole_faces.target_area[static_cast<std::size_t>(T.dense.face_ids(j))] += T.dense_h * T.dense_h;
+      if (T.dense.face_ids(j) > 0) on_face[static_cast<std::size_t>(T.dense.face_ids(j))].push_back(static_cast<int>(j));
+    whole_faces.target_area.resize(on_face.size());
+    face_rows.resize(on_face.size());
+    for (std::size_t g = 0; g < on_face.size(); ++g) {
+      whole_faces.target_area[g] = static_cast<double>(on_face[g].size()) * T.dense_h * T.dense_h;
+      for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(on_face[g].size()), 150)) face_rows[g].push_back(on_face[g][static_cast<std::size_t>(k)]);
+    }
     whole_faces.target_nearest = [&](const Eigen::Vector3d& y, double* d) {
-      double d2;
-      const int j = T.dense_tree->nearest(y, &d2);
-      *d = j < 0 ? INFINITY : std::sqrt(d2);
+      int j;
+      *d = target_distance(y, &j);
       return j;
     };
+    for (const Eigen::Index i : refine_rows) refine_face.push_back(R.dense.face_ids(i));
   }
   // Reverse pairs for the surface refinement (issue 9): the refinement pulls reference samples onto
   // the target, which a fit on part of a larger instance already satisfies (a rib stretched 2x
@@ -784,17 +797,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   // sample, so the fit grows to cover those faces, up to 4 times the mapped area. Returns the mean
   // distance of those target samples to the mapped reference (reference units, truncated at the
   // normal penalty), and the pairs when asked.
-  std::vector<int> refine_face;
-  std::vector<std::vector<int>> face_rows;  // target face -> its dense samples, at most 150
-  if (whole_faces.reference) {
-    for (const Eigen::Index i : sub_rows(core_dense, 800)) refine_face.push_back(R.dense.face_ids(i));
-    std::vector<std::vector<int>> all(whole_faces.target_area.size());
-    for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
-      if (T.dense.face_ids(j) > 0) all[static_cast<std::size_t>(T.dense.face_ids(j))].push_back(static_cast<int>(j));
-    face_rows.resize(all.size());
-    for (std::size_t g = 0; g < all.size(); ++g)
-      for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(all[g].size()), 150)) face_rows[g].push_back(all[g][static_cast<std::size_t>(k)]);
-  }
   const double refine_cell = R.dense_h * R.dense_h * static_cast<double>(core_dense.size()) / static_cast<double>(std::max<Eigen::Index>(1, refine_pts.rows()));
   auto reverse_pairs = [&](const Eigen::Matrix4d& H, double s, std::vector<Eigen::Vector3d>* ra, std::vector<Eigen::Vector3d>* rb) -> double {
     if (refine_face.size() != static_cast<std::size_t>(refine_pts.rows())) return 0;
@@ -804,9 +806,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     const double land = 2 * T.dense_h + 0.01 * L * s;
     for (std::size_t k = 0; k < refine_face.size(); ++k) {
       mapped[k] = apply_transform(H, refine_pts.row(static_cast<Eigen::Index>(k)).transpose());
-      double d2;
-      const int j = T.dense_tree->nearest(mapped[k], &d2);
-      if (j < 0 || !(std::sqrt(d2) <= land)) continue;
+      int j;
+      if (!(target_distance(mapped[k], &j) <= land) || j < 0) continue;
       const int g = T.dense.face_ids(j);
       if (g <= 0 || static_cast<std::size_t>(g) >= wanted.size()) continue;
       on[g].push_back(static_cast<int>(k));
@@ -836,10 +837,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       }
     }
     return n ? sum / n : 0.0;
-  };
-  auto target_distance = [&](const Eigen::Vector3d& y) {
-    double d2;
-    return T.dense_tree->nearest(y, &d2) < 0 ? INFINITY : std::sqrt(d2);
   };
 
   const bool debug = std::getenv("FE_DEBUG") != nullptr;  // trace of every RANSAC outcome on stderr
@@ -1144,7 +1141,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       bool accepted = finite_map && err <= p.accept_error * L && score >= p.min_score && key_agreement >= p.min_key_agreement;
       double obstructed = 0;
       if ((accepted || debug) && p.max_obstructed < 1) {
-        obstructed = clearance.obstructed(H, target_distance, 0.5 * s * R.dense_h + T.dense_h, 3 * R.dense_h + 2 * err);
+        obstructed = clearance.obstructed(H, [&](const Eigen::Vector3d& y) { return target_distance(y); }, 0.5 * s * R.dense_h + T.dense_h,
+                                          3 * R.dense_h + 2 * err);
         accepted = accepted && obstructed <= p.max_obstructed;
       }
       double partial_faces = 0;
@@ -1169,22 +1167,24 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       // An accepted hypothesis that explains no pair (the same instance found again, its pairs gone)
       // drops those around its sample too, so the search goes on elsewhere instead of ending.
       KdTree3 mtree(mapped);
-      std::vector<KeyPointPair> rest;
-      for (int pass = accepted ? 0 : 1; pass < 2 && (pass == (accepted ? 0 : 1) || rest.size() == pairs.size()); ++pass) {
-        const double reach = pass == 0 ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
-        rest.clear();
+      auto remaining = [&](bool explained_by_map) {  // the pairs left after dropping one way or the other
+        const double reach = explained_by_map ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
+        std::vector<KeyPointPair> left;
         for (std::size_t i = 0; i < pairs.size(); ++i) {
           bool drop = false;
-          if (pass == 0) {
+          if (explained_by_map) {
             double d2;
             mtree.nearest(T.keys.row(pairs[i].tgt).transpose(), &d2);
             drop = std::sqrt(d2) <= reach;
           } else {
             for (int si : rr.sample) drop = drop || (tp.row(static_cast<Eigen::Index>(i)) - tp.row(si)).norm() <= reach;
           }
-          if (!drop) rest.push_back(pairs[i]);
+          if (!drop) left.push_back(pairs[i]);
         }
-      }
+        return left;
+      };
+      std::vector<KeyPointPair> rest = remaining(accepted);
+      if (accepted && rest.size() == pairs.size()) rest = remaining(false);
       if (debug) std::fprintf(stderr, "   pairs %zu -> %zu\n", pairs.size(), rest.size());
       if (rest.size() == pairs.size()) break;  // no progress possible
       const std::size_t explained = pairs.size() - rest.size();

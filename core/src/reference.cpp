@@ -76,16 +76,16 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
     // was clipped out of a mesh with a box: those sides are cut, though no cut face closes them.
     if (m.from_brep() || !(open > 0)) return out;
     std::array<double, 6> along{};
-    for (Eigen::Index t = 0; t < T; ++t)
+    for (Eigen::Index t = 0; t < T; ++t) {
+      const Eigen::Vector3d n = (m.vertices.row(m.triangles(t, 1)) - m.vertices.row(m.triangles(t, 0)))
+                                    .cross(m.vertices.row(m.triangles(t, 2)) - m.vertices.row(m.triangles(t, 0)))
+                                    .transpose()
+                                    .normalized();
       for (int k = 0; k < 3; ++k) {
         const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
         const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(a)]), w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(b)]);
         const auto& e = edges[std::min(u, w) << 32 | std::max(u, w)];
         if (e.first != 1) continue;
-        const Eigen::Vector3d n = (m.vertices.row(m.triangles(t, 1)) - m.vertices.row(m.triangles(t, 0)))
-                                      .cross(m.vertices.row(m.triangles(t, 2)) - m.vertices.row(m.triangles(t, 0)))
-                                      .transpose()
-                                      .normalized();
         for (int axis = 0; axis < 3; ++axis)
           for (int side = 0; side < 2; ++side) {
             // the surface must cross the side (a face lying in it, like a plate's bottom, is not cut there)
@@ -95,6 +95,7 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
               along[static_cast<std::size_t>(2 * axis + side)] += e.second;
           }
       }
+    }
     for (std::size_t s = 0; s < 6; ++s) out.cut_sides[s] = along[s] >= kBorderShare * open;
     return out;
   }

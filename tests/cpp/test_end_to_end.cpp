@@ -150,6 +150,16 @@ TEST(EndToEnd, RidgeAndRutKeyPointsAreOptInAndStillFindTheRibs) {
   for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss " << b;
 }
 
+// FTC-10: every match lies at an ear (|x| > x_min, |z| > z_min), and each of the 4 corners has one.
+static void expect_one_ear_per_corner(const fe::Result& r, double x_min, double z_min) {
+  int corners[4] = {0, 0, 0, 0};
+  for (const fe::Match& m : r.matches) {
+    ASSERT_TRUE(std::abs(m.center.x()) > x_min && std::abs(m.center.z()) > z_min) << m.center.transpose();
+    ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
+  }
+  for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+}
+
 TEST(EndToEnd, RealPartEarsAreAllFound) {
   // NIST FTC-10: four corner ears, mirror images two by two, joined to the housing by fillets (one
   // cluster of pairs). The paper's key points alone found none, the ridge-and-rut fallback one; the
@@ -157,12 +167,7 @@ TEST(EndToEnd, RealPartEarsAreAllFound) {
   const fe::TriangleMesh ref = fe::read_shape(models() + "/suite/ftc10_ear_reference.step");
   const fe::TriangleMesh tgt = fe::read_shape(models() + "/suite/ftc10.step", fe::tessellation_for_feature(ref.diagonal()));
   const fe::Result r = fe::extract(ref, tgt);
-  int corners[4] = {0, 0, 0, 0};
-  for (const fe::Match& m : r.matches) {  // each found region is an ear: |x| > 60 and |z| > 18
-    ASSERT_TRUE(std::abs(m.center.x()) > 58 && std::abs(m.center.z()) > 16) << m.center.transpose();
-    ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
-  }
-  for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+  expect_one_ear_per_corner(r, 58, 16);  // each found region is an ear: |x| > 60 and |z| > 18
   // without the one-pair placements, RANSAC's 5-pair samples among the cluster's wrong pairs miss some
   fe::Params p;
   p.pose_hypotheses = false;
@@ -179,12 +184,7 @@ TEST(EndToEnd, BoxCutEarIsJudgedOnItsCore) {
   const fe::Result r = fe::extract(ref, tgt);
   EXPECT_TRUE(r.reference_closed);
   EXPECT_GE(r.reference_cut_faces.size(), 3u);
-  int corners[4] = {0, 0, 0, 0};
-  for (const fe::Match& m : r.matches) {
-    ASSERT_TRUE(std::abs(m.center.x()) > 55 && std::abs(m.center.z()) > 15) << m.center.transpose();
-    ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
-  }
-  for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+  expect_one_ear_per_corner(r, 55, 15);
 }
 
 TEST(EndToEnd, StlRegionEarIsJudgedAwayFromItsClippedBorder) {
@@ -201,12 +201,7 @@ TEST(EndToEnd, StlRegionEarIsJudgedAwayFromItsClippedBorder) {
   EXPECT_FALSE(r.reference_closed);
   EXPECT_EQ(r.reference_cut_triangles, 0u);
   EXPECT_FALSE(r.reference_cut_sides.empty());
-  int corners[4] = {0, 0, 0, 0};
-  for (const fe::Match& m : r.matches) {
-    ASSERT_TRUE(std::abs(m.center.x()) > 55 && std::abs(m.center.z()) > 15) << m.center.transpose();
-    ++corners[(m.center.x() > 0 ? 1 : 0) + (m.center.z() > 0 ? 2 : 0)];
-  }
-  for (int c = 0; c < 4; ++c) EXPECT_EQ(corners[c], 1) << "corner " << c;
+  expect_one_ear_per_corner(r, 55, 15);
 }
 
 TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
