@@ -16,6 +16,7 @@ PACKAGES=(
   freecad xvfb xauth
   clang libclang-rt-14-dev   # libFuzzer and the sanitizers: the fuzzing build (fuzz/, issue 10)
   occt-misc   # real parts for bench/user_cases.py (Top.brep)
+  gmsh python3-gmsh calculix-ccx   # mesh-part: gmsh meshes the rest of the part (a separate program), CalculiX solves it (issue 12)
 )
 [ -n "${FE_SKIP_APT:-}" ] || tools/install_packages.sh "${PACKAGES[@]}"
 

@@ -326,6 +326,11 @@ def build_boss(step):
             "BOSS_ROOT": "nodes at the boss root, where the root fillet meets the plate (z <= 0.01)",
         },
         "element_sets": {"BOSS": "all boss elements"},
+        "analysis": [
+            {"kind": "rigid_body", "node_set": "BOLT_RIGID",
+             "text": "bolt connection: the top disk's nodes move as one rigid body (CalculiX *RIGID BODY, "
+                     "Nastran RBE2) about a reference node at their centroid, where the bolt load goes"},
+        ],
     }
     info = {"circles": circles, "axis": (cx, cy), "flipped_surfaces": flips, "zmax": zmax}
     return nodes, elems, {"BOSS": [e[0] for e in elems]}, node_sets, entity_sets, spec, info

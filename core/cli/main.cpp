@@ -5,10 +5,16 @@
 //       extraction with the feature folder's geometry, then its FE mesh placed on every instance:
 //       OUT_DIR/instance_NN.inp, .msh, .feature.json and OUT_DIR/result.json (with a "transfer"
 //       entry per match: node projection and element quality before and after)
+//   featureextract mesh-part --feature DIR [--feature DIR ...] --target PART --output OUT_DIR [--size S]
+//                            [--thickness T] [--force F] [same options]
+//       one FE mesh of the whole part (issue 12): every instance of every feature carries its mesh, the
+//       rest is meshed by gmsh (core/mesher/fe_gmsh_rest.py, a separate program) on the patches'
+//       border nodes: OUT_DIR/part.inp, part.msh, analysis.inp (CalculiX static), mesh_part.json
 // Exit codes: 0 done (also when nothing is found), 2 usage error, 3 unreadable or invalid input,
 // 4 the output could not be written, 5 stopped by --time-limit, 1 internal error.
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
+#include "featureextract/part_mesh.h"
 #include "featureextract/transfer.h"
 
 #include <nlohmann/json.hpp>
@@ -24,6 +30,13 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char** environ;
 
 namespace {
 
@@ -101,6 +114,258 @@ nlohmann::ordered_json quality(const fe::QualitySummary& q) {
           {"median_aspect_ratio", num(q.median_aspect_ratio)}, {"min_angle_deg", num(q.min_angle_deg)}};
 }
 
+// The mesher program (core/mesher/fe_gmsh_rest.py): $FE_GMSH_REST, else next to this executable, else
+// in ../share/featureextract beside it (an installed tree).
+std::string mesher_path() {
+  std::error_code ec;
+  if (const char* e = std::getenv("FE_GMSH_REST"); e && *e) return std::filesystem::is_regular_file(e, ec) ? e : "";
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  for (const auto& p : {exe.parent_path() / "fe_gmsh_rest.py", exe.parent_path() / ".." / "share" / "featureextract" / "fe_gmsh_rest.py"})
+    if (std::filesystem::exists(p, ec)) return p.string();
+  return "";
+}
+
+// Runs argv (no shell), stderr to err_path; returns the exit status, -1 if it could not start or was
+// killed by a signal.
+int run_program(const std::vector<std::string>& args, const std::string& err_path) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) return -1;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string first_line_of(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;  // the last non-empty line: a traceback ends with the error
+  return last;
+}
+
+
+struct MeshPartArgs {
+  std::vector<std::string> features;
+  std::string target, output;
+  double size, thickness, force, max_projection, time_limit;
+  bool quiet, plain, solid;
+};
+
+// featureextract mesh-part: extraction per feature, the mesh transfer per instance, overlaps resolved,
+// the rest meshed by the mesher program, the whole assembled, checked and written with an analysis deck.
+int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_clock::time_point started) {
+  namespace fs = std::filesystem;
+  Progress progress;
+  progress.quiet = a.quiet;
+  const std::string mesher = mesher_path();
+  if (mesher.empty()) {
+    say("mesh-part: the mesher program fe_gmsh_rest.py is missing (FE_GMSH_REST names no file, or it is not next to "
+        "featureextract): reinstall");
+    return 1;
+  }
+  std::error_code ec;
+  fs::create_directories(a.output, ec);
+  if (ec || !fs::is_directory(a.output)) {
+    say(a.output + ": cannot create the output folder" + (ec ? ": " + ec.message() : ""));
+    return 4;
+  }
+  auto left = [&] { return a.time_limit - std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+  std::vector<fe::PartPatch> patches;
+  nlohmann::ordered_json report;
+  report["target"] = a.target;
+  report["plain"] = a.plain;
+  report["features"] = nlohmann::ordered_json::array();
+  int part_faces = 0;
+  double feature_size = 0, part_diagonal = 0;
+  fe::TransferOptions topt;
+  topt.max_projection = a.max_projection;
+  try {
+    for (std::size_t fi = 0; fi < a.features.size(); ++fi) {
+      const fe::FeatureModel feature = fe::read_feature(a.features[fi]);
+      fe::TessellationOptions to;
+      if (a.time_limit > 0) to.time_limit = std::max(0.01, left());
+      const fe::TriangleMesh ref = fe::read_shape(feature.geometry_path, to);
+      if (a.time_limit > 0) to.time_limit = std::max(0.01, left());
+      const fe::TriangleMesh tgt = fe::read_shape(a.target, fe::tessellation_for_feature(ref.diagonal(), to));
+      if (!tgt.from_brep()) throw fe::InputError(a.target + ": mesh-part needs a B-rep part (STEP, IGES or BREP), not a triangle mesh");
+      part_faces = tgt.num_faces;
+      part_diagonal = tgt.diagonal();
+      if (a.time_limit > 0) {
+        if (left() <= 0) throw fe::TimeLimitExceeded("out of time after reading");
+        params.time_limit = left();
+      }
+      if (!a.quiet) say("mesh-part: feature " + std::to_string(fi + 1) + " of " + std::to_string(a.features.size()) + ": " + feature.name);
+      const fe::Result result = fe::extract(ref, tgt, params, std::ref(progress));
+      const nlohmann::json spec = nlohmann::json::parse(feature.spec_json, nullptr, false);
+      std::vector<std::string> rigid;
+      if (spec.is_object() && spec.contains("analysis") && spec["analysis"].is_array())
+        for (const auto& an : spec["analysis"])
+          if (an.is_object() && an.value("kind", "") == "rigid_body" && an.contains("node_set") && an["node_set"].is_string())
+            rigid.push_back(an["node_set"].get<std::string>());
+      if (spec.is_object() && spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
+          spec["element"]["size"].is_number())
+        feature_size = feature_size > 0 ? std::min(feature_size, spec["element"]["size"].get<double>()) : spec["element"]["size"].get<double>();
+      nlohmann::ordered_json fj = {{"folder", a.features[fi]}, {"name", feature.name}, {"found", result.matches.size()}};
+      std::size_t k = 0;
+      for (const fe::Match& m : result.matches) {
+        ++k;
+        fe::PartPatch p;
+        p.name = fe::set_name(feature.name) + "_" + std::to_string(k);
+        try {
+          fe::TransferredMesh t = fe::transfer_mesh(feature.mesh, m.transform, tgt, topt, feature.spec_json);
+          p.mesh = std::move(t.mesh);
+        } catch (const std::exception& e) {
+          fj["skipped"].push_back(p.name + ": " + e.what());
+          continue;
+        }
+        p.faces = m.faces;
+        p.score = m.score;
+        p.feature = feature.name;
+        for (const auto& r : rigid)
+          if (p.mesh.node_sets.count(r)) p.rigid_sets.push_back(p.name + "_" + r);
+        patches.push_back(std::move(p));
+      }
+      report["features"].push_back(fj);
+    }
+  } catch (const fe::InputError& e) {
+    say(e.what());
+    return 3;
+  } catch (const fe::TimeLimitExceeded&) {
+    std::ostringstream m;
+    m << a.target << ": stopped after the time limit of " << a.time_limit << " s (--time-limit)";
+    say(m.str());
+    return 5;
+  } catch (const std::exception& e) {
+    say(std::string("internal error: ") + e.what());
+    return 1;
+  }
+  const std::vector<std::string> dropped = fe::resolve_overlaps(patches);
+  for (const auto& d : dropped)
+    if (!a.quiet) say("mesh-part: " + d);
+  report["overlaps"] = dropped;
+  const double size = a.size > 0 ? a.size : (feature_size > 0 ? 2 * feature_size : part_diagonal / 50);
+  report["size"] = size;
+  // the mesher, a separate program
+  const std::string job_path = (fs::path(a.output) / "mesher_job.json").string();
+  const std::string answer_path = (fs::path(a.output) / "mesher_answer.json").string();
+  const std::string err_path = (fs::path(a.output) / "mesher.log").string();
+  if (!write_atomically(job_path, fe::part_mesh_job(fs::absolute(a.target).string(), part_faces, size, patches, a.plain))) return 4;
+  progress("meshing the rest (gmsh)", 0.0);
+  const int rc = run_program({"/usr/bin/python3", mesher, job_path, answer_path}, err_path);
+  if (rc != 0) {
+    const std::string why = first_line_of(err_path);
+    say(a.target + ": the rest of the part could not be meshed: " + (why.empty() ? "the mesher stopped (status " + std::to_string(rc) + ")" : why));
+    return rc == 1 || rc == -1 ? 1 : 3;
+  }
+  progress("meshing the rest (gmsh)", 1.0);
+  std::ifstream in(answer_path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  fe::PartMeshReport rep;
+  fe::FeMesh whole;
+  try {
+    whole = fe::assemble_part_mesh(a.plain ? std::vector<fe::PartPatch>{} : patches, ss.str(), &rep);
+  } catch (const std::exception& e) {
+    say(std::string("internal error: ") + e.what());
+    return 1;
+  }
+  const std::vector<fe::ElementQuality> q = fe::element_quality(whole);
+  std::vector<fe::ElementQuality> qp(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(rep.patch_elements)),
+      qr(q.begin() + static_cast<std::ptrdiff_t>(rep.patch_elements), q.end());
+  // --solid: the same surface filled with tetrahedra by the mesher
+  fe::FeMesh solid;
+  if (a.solid) {
+    const std::string fjob = (fs::path(a.output) / "mesher_fill_job.json").string();
+    const std::string fans = (fs::path(a.output) / "mesher_fill_answer.json").string();
+    if (!write_atomically(fjob, fe::fill_job(whole, size))) return 4;
+    progress("filling the part with tetrahedra (gmsh)", 0.0);
+    const int frc = run_program({"/usr/bin/python3", mesher, fjob, fans}, err_path);
+    if (frc != 0) {
+      const std::string why = first_line_of(err_path);
+      say(a.target + ": the part could not be filled with tetrahedra: " + (why.empty() ? "the mesher stopped (status " + std::to_string(frc) + ")" : why));
+      return frc == 2 ? 3 : 1;
+    }
+    progress("filling the part with tetrahedra (gmsh)", 1.0);
+    std::ifstream fin(fans);
+    std::stringstream fss;
+    fss << fin.rdbuf();
+    try {
+      solid = fe::solid_from_fill(whole, fss.str());
+    } catch (const std::exception& e) {
+      say(std::string("internal error: ") + e.what());
+      return 1;
+    }
+    const auto qs = fe::element_quality(solid);
+    report["solid"] = {{"inp", "part_solid.inp"}, {"msh", "part_solid.msh"}, {"nodes", solid.nodes.rows()},
+                       {"elements", solid.num_elements()}, {"type", "C3D4"}, {"quality", quality(fe::summarize(qs))}};
+  }
+  try {
+    fe::write_inp(whole, (fs::path(a.output) / "part.inp").string());
+    fe::write_msh(whole, (fs::path(a.output) / "part.msh").string());
+    if (a.solid) {
+      fe::write_inp(solid, (fs::path(a.output) / "part_solid.inp").string());
+      fe::write_msh(solid, (fs::path(a.output) / "part_solid.msh").string());
+    }
+    fe::StaticAnalysis an;
+    an.thickness = a.thickness;
+    an.force = a.force;
+    an.solid = a.solid;
+    for (const auto& p : patches) {
+      if (!a.plain && !a.solid) an.section_sets.push_back(p.name);
+      for (const auto& r : p.rigid_sets) an.rigid_sets.push_back(r);
+    }
+    if (a.solid) an.section_sets.push_back("PART_SOLID");
+    else if (rep.rest_elements > 0) an.section_sets.push_back("PART_REST");
+    if (!whole.node_sets.count("FIXED")) throw std::runtime_error("no face of the rest to hold the part by (every face is covered)");
+    fe::write_ccx_static(a.solid ? solid : whole, a.solid ? "part_solid.inp" : "part.inp", an,
+                         (fs::path(a.output) / "analysis.inp").string());
+    report["analysis"] = {{"deck", "analysis.inp"}, {"mesh", a.solid ? "part_solid.inp" : "part.inp"},
+                          {"model", a.solid ? "solid (C3D4)" : "shell"}, {"thickness", a.solid ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(a.thickness)},
+                          {"force", a.force}, {"rigid_sets", an.rigid_sets}, {"fixed_face", rep.fixed_face}};
+  } catch (const std::exception& e) {
+    say(a.output + ": " + e.what());
+    return 4;
+  }
+  report["instances"] = nlohmann::ordered_json::array();
+  for (const auto& p : patches) {
+    const Eigen::Vector3d lo = p.mesh.nodes.colwise().minCoeff().transpose(), hi = p.mesh.nodes.colwise().maxCoeff().transpose();
+    report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
+                                   {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},
+                                   {"bbox_min", {lo.x(), lo.y(), lo.z()}}, {"bbox_max", {hi.x(), hi.y(), hi.z()}},
+                                   {"rigid_sets", p.rigid_sets}});
+  }
+  report["mesh"] = {{"inp", "part.inp"}, {"msh", "part.msh"}, {"nodes", whole.nodes.rows()}, {"elements", whole.num_elements()},
+                    {"patch_nodes", rep.patch_nodes}, {"patch_elements", rep.patch_elements},
+                    {"rest_nodes", rep.rest_nodes}, {"rest_elements", rep.rest_elements}, {"joined_nodes", rep.joined_nodes},
+                    {"moved_onto_brep", rep.moved_nodes}};
+  report["conformity"] = {{"duplicate_nodes", rep.duplicate_nodes}, {"free_edges", rep.free_edges},
+                          {"free_edges_at_patches", rep.free_edges_at_patches},
+                          {"border_nodes_not_joined", rep.border_nodes_not_joined}};
+  report["quality"] = {{"patches", quality(fe::summarize(qp))}, {"rest", quality(fe::summarize(qr))}, {"all", quality(fe::summarize(q))}};
+  report["mesher"] = nlohmann::ordered_json::parse(rep.mesher_report.empty() ? "{}" : rep.mesher_report, nullptr, false);
+  report["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (!write_atomically((fs::path(a.output) / "mesh_part.json").string(),
+                        report.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace)))
+    return 4;
+  if (!a.quiet) {
+    std::ostringstream m;
+    m << "mesh-part: " << patches.size() << " instance(s), " << whole.nodes.rows() << " nodes, " << whole.num_elements()
+      << " elements; " << rep.free_edges << " free edges, " << rep.duplicate_nodes << " duplicate nodes, "
+      << rep.border_nodes_not_joined << " border nodes not joined -> " << a.output;
+    say(m.str());
+  }
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -111,7 +376,13 @@ int main(int argc, char** argv) {
   auto* ex = app.add_subcommand("extract", "find the instances of REF in TGT and write them as JSON");
   auto* me = app.add_subcommand("mesh", "find the instances of a reference feature folder's geometry in TGT and place its FE "
                                         "mesh on each (OUT_DIR/instance_NN.inp/.msh/.feature.json, OUT_DIR/result.json)");
+  auto* mp = app.add_subcommand("mesh-part", "one FE mesh of the whole part: every instance of every feature carries the "
+                                             "feature's mesh, the rest is meshed by gmsh, conforming (OUT_DIR/part.inp, "
+                                             "part.msh, analysis.inp, mesh_part.json)");
   std::string ref_path, tgt_path, out_path, config_path, feature_dir;
+  std::vector<std::string> feature_dirs;
+  double part_size = 0, thickness = 0.2, force = 100.0;
+  bool plain = false, solid = false;
   std::string seed_text;
   int threads = -1;
   double time_limit = 0;
@@ -133,7 +404,17 @@ int main(int argc, char** argv) {
   }, "SECONDS");
   me->add_option("--max-projection", max_projection, "largest move of a mapped node onto the target, fraction of the "
                                                      "instance's diagonal (default 0.03)")->check(finite_positive);
-  for (CLI::App* sub : {ex, me}) {
+  mp->add_option("--feature,-f", feature_dirs, "reference feature folder (repeatable)")->required();
+  mp->add_option("--output,-o", out_path, "output folder (created)")->required();
+  mp->add_option("--size", part_size, "element size of the rest of the part (default: the features' element size, "
+                                      "else 1/50 of the part's diagonal)")->check(finite_positive);
+  mp->add_option("--thickness", thickness, "shell thickness of the analysis deck (default 0.2)")->check(finite_positive);
+  mp->add_flag("--solid", solid, "also fill the surface mesh with tetrahedra (C3D4, part_solid.inp/.msh); the analysis "
+                                 "deck then uses the solid");
+  mp->add_flag("--plain", plain, "mesh the whole part with gmsh, no feature mesh placed (the same analysis on a mesh "
+                                 "without feature rules, for comparison); the features still say where the bolts are");
+  mp->add_option("--force", force, "force on each rigid bolt connection, along -z (default 100)")->check(finite_non_negative);
+  for (CLI::App* sub : {ex, me, mp}) {
     sub->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
     sub->add_option("--config,-c", config_path, "JSON object of parameters (see below)");
     sub->add_option("--seed", seed_text, "seed of sampling and RANSAC, a whole number >= 0 (default 1)");
@@ -207,6 +488,10 @@ int main(int argc, char** argv) {
   }
   const auto started = std::chrono::steady_clock::now();
 
+  if (mp->parsed()) {
+    MeshPartArgs a{feature_dirs, tgt_path, out_path, part_size, thickness, force, max_projection, time_limit, quiet, plain, solid};
+    return mesh_part(a, params, started);
+  }
   const bool mesh_mode = me->parsed();
   Progress progress;
   progress.quiet = quiet;

@@ -867,9 +867,10 @@ struct File {
   void put(const std::string& s) { std::fwrite(s.data(), 1, s.size(), f); }
   void put(const char* s) { std::fputs(s, f); }
   void num(long v) { std::fprintf(f, "%ld", v); }
-  void num(double v) {  // shortest text that reads back exactly
+  void num(double v) {  // shortest text that reads back exactly, if it fits CalculiX's 20 characters
     char buf[64];
-    const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+    auto r = std::to_chars(buf, buf + sizeof(buf), v);
+    if (r.ptr - buf > 20) r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::general, 13);
     std::fwrite(buf, 1, static_cast<std::size_t>(r.ptr - buf), f);
   }
 };

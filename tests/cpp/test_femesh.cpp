@@ -11,6 +11,8 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <sstream>
+#include <algorithm>
 
 namespace {
 
@@ -458,4 +460,41 @@ TEST(FeMeshQuality, FlippedShellAgainstReferenceNormals) {
 
   fe::Points wrong(2, 3);
   EXPECT_THROW(fe::element_quality(m, &wrong), std::invalid_argument);
+}
+
+TEST(FeMeshWrite, InpNumbersFitCalculixsTwentyCharacters) {
+  // CalculiX reads at most 20 characters of a number: -9.358640446443431e-17 (22) stopped it
+  fe::FeMesh m;
+  m.nodes.resize(3, 3);
+  m.nodes << 19.841637952130124, 59.566329911224166, -9.358640446443431e-17, 1.0 / 3.0, -2.0 / 3.0, 1e-300, 0, 1, 0.5;
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Tri3;
+  b.conn.resize(1, 3);
+  b.conn << 0, 1, 2;
+  m.blocks.push_back(b);
+  const std::string path = tmp("twenty.inp");
+  fe::write_inp(m, path);
+  std::ifstream in(path);
+  std::string line;
+  bool in_nodes = false;
+  int rows = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("*", 0) == 0) {
+      in_nodes = line.rfind("*NODE", 0) == 0;
+      continue;
+    }
+    if (!in_nodes) continue;
+    ++rows;
+    std::stringstream ss(line);
+    std::string field;
+    while (std::getline(ss, field, ',')) {
+      const auto a = field.find_first_not_of(' ');
+      EXPECT_LE(field.size() - (a == std::string::npos ? field.size() : a), 20u) << line;
+    }
+  }
+  EXPECT_EQ(rows, 3);
+  const fe::FeMesh back = fe::read_fe_mesh(path);
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.nodes(i, c), m.nodes(i, c), 1e-12 * std::max(1.0, std::abs(m.nodes(i, c))));
+  EXPECT_EQ(back.nodes(0, 1), m.nodes(0, 1));  // what fits is still exact
 }

@@ -70,7 +70,9 @@ FeMesh read_fe_mesh(const std::string& path);
 
 /// Abaqus/CalculiX input: *NODE, *ELEMENT (TYPE=S3/S4/C3D4/C3D8, ELSET= the block's elset),
 /// *NSET and *ELSET (16 ids per line; an element set that is exactly the union of the blocks carrying
-/// its name is not repeated). Coordinates are written with 17 significant digits (exact round trip).
+/// its name is not repeated). Coordinates are written as the shortest text that reads back exactly,
+/// unless that is longer than the 20 characters CalculiX reads (e.g. -9.358640446443431e-17): then with
+/// 13 significant digits.
 /// Empty node_ids / block ids are replaced by 1-based positions. Throws std::runtime_error if the
 /// file cannot be written, std::invalid_argument for an inconsistent mesh.
 void write_inp(const FeMesh& m, const std::string& path);

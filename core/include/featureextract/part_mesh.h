@@ -1,0 +1,97 @@
+// One FE mesh of the whole part (issue 12): every found instance carries its feature's mesh (a
+// "patch"), the faces no instance covers are meshed by gmsh, run as a separate program
+// (core/mesher/fe_gmsh_rest.py), on the patches' border nodes, so that the result is conforming.
+// This file: the patches, the job for the mesher, the assembly of its answer with the patches, the
+// conformity checks and a CalculiX static analysis deck. Eigen and std only.
+#pragma once
+
+#include "featureextract/femesh.h"
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace fe {
+
+/// A feature's mesh placed on one instance.
+struct PartPatch {
+  FeMesh mesh;             ///< transferred mesh (shell elements)
+  std::vector<int> faces;  ///< 1-based target FaceN the instance covers
+  std::string name;        ///< set prefix, e.g. "SCREW_BOSS_2"
+  double score = 0;        ///< the match's score (overlaps: the better one stays)
+  std::string feature;     ///< feature name, as in feature.json
+  /// node sets of the feature that carry a rigid bolt connection (feature.json "analysis")
+  std::vector<std::string> rigid_sets;
+};
+
+/// "screw boss" -> "SCREW_BOSS": upper case, anything but letters and digits becomes '_', runs of '_'
+/// merged; empty -> "FEATURE".
+std::string set_name(const std::string& text);
+
+/// 0-based nodes on the free edges of the mesh's shell elements (edges used by one element), sorted.
+std::vector<int> border_nodes(const FeMesh& m);
+
+/// Removes the patches that share a face with a better-scoring patch (ties: the earlier). Returns one
+/// line per removed patch, naming both.
+std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches);
+
+/// The mesher's job (JSON, see fe_gmsh_rest.py): the part, its face count, the element size of the
+/// rest, and per patch its faces, nodes (key = index in the assembled node array), border nodes and
+/// the distance within which a node is put onto the B-rep (tolerance_factor x median edge length), and
+/// the nodes of its rigid sets. plain: gmsh meshes the whole part, the patches only say where the
+/// instances are (the support is chosen away from them, a rigid set becomes the nodes of the face its
+/// patch set lies on): the mesh without feature rules that the analysis is compared with.
+std::string part_mesh_job(const std::string& part_path, int part_faces, double size, const std::vector<PartPatch>& patches,
+                          bool plain = false, double tolerance_factor = 1.5);
+
+struct PartMeshReport {
+  std::size_t patches = 0, patch_nodes = 0, patch_elements = 0, rest_nodes = 0, rest_elements = 0;
+  std::size_t joined_nodes = 0;          ///< rest nodes that are patch border nodes
+  std::size_t moved_nodes = 0;           ///< patch nodes put onto the B-rep by the mesher
+  std::size_t border_nodes_not_joined = 0;  ///< patch border nodes left out of the rest's mesh
+  std::size_t duplicate_nodes = 0;       ///< distinct nodes closer than 1e-9 x part size to another
+  std::size_t free_edges = 0;            ///< edges of one element (a closed part's surface has none)
+  std::size_t free_edges_at_patches = 0; ///< ... of those, on a patch's elements
+  int fixed_face = 0;                    ///< support face suggested by the mesher (largest face of the
+                                         ///< rest with no covered neighbour)
+  std::string mesher_report;             ///< the mesher's own report (JSON object)
+};
+
+/// Joins the patches and the mesher's answer (rest_json, fe_gmsh_rest.py's OUT.json) into one mesh:
+/// patch nodes first (moved onto the B-rep where the mesher says), then the rest's nodes; the
+/// patches' elements with their sets renamed NAME_SET, an element set NAME per patch, the rest's
+/// triangles (S3) in element set PART_REST, node set FIXED on the suggested support face (and, for a
+/// plain mesh, the rigid sets on their faces). Patches of a plain mesh: pass none. Throws
+/// InputError("fe_gmsh_rest: ...") for an answer that does not fit the patches.
+FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::string& rest_json, PartMeshReport* report = nullptr);
+
+/// Free edges (edges of exactly one shell element) and pairs of distinct nodes closer than tolerance.
+void conformity(const FeMesh& m, double tolerance, std::size_t* free_edges, std::size_t* duplicate_nodes,
+                std::vector<int>* free_edge_elements = nullptr);
+
+/// The job that fills a closed surface mesh with tetrahedra (fe_gmsh_rest.py's fill): node ids are
+/// rows + 1, quads are cut into two triangles across the shorter diagonal.
+std::string fill_job(const FeMesh& surface, double size);
+
+/// The solid mesh from the fill's answer: the surface's nodes (same rows, same node sets), then the
+/// inner ones; 4-node tetrahedra (C3D4, positive volume) in element set PART_SOLID. Throws InputError
+/// ("fe_gmsh_rest: ...") for an answer that does not fit the surface.
+FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json);
+
+/// A linear static analysis for CalculiX: the mesh (*INCLUDE of mesh_file), an isotropic material,
+/// a shell section of the given thickness on each of section_sets (together: every element), the node set `fixed_set` held in all six
+/// degrees of freedom, and per rigid set a reference node at the set's centroid, joined by *RIGID
+/// BODY, loaded by `force` along `direction`. Displacements (*NODE PRINT, .dat) and stresses (*EL
+/// FILE, .frd) are written.
+struct StaticAnalysis {
+  double thickness = 1.0, young = 210000.0, poisson = 0.3;
+  std::string fixed_set = "FIXED";
+  std::vector<std::string> section_sets;
+  bool solid = false;  ///< *SOLID SECTION (no thickness), supports hold 3 degrees of freedom
+  std::vector<std::string> rigid_sets;
+  double force = 100.0;
+  Eigen::Vector3d direction{0, 0, -1};
+};
+void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path);
+
+}  // namespace fe

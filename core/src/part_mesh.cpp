@@ -1,0 +1,495 @@
+// One FE mesh of the whole part (issue 12): patches, the mesher's job, assembly, conformity, CalculiX deck.
+#include "featureextract/part_mesh.h"
+
+#include "featureextract/mesh.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace fe {
+
+namespace {
+
+[[noreturn]] void bad_answer(const std::string& what) { throw InputError("fe_gmsh_rest: " + what); }
+
+// Edges of the shell elements, as (lo, hi) node pairs, with the global element index of each use.
+std::map<std::pair<int, int>, std::vector<int>> shell_edges(const FeMesh& m) {
+  std::map<std::pair<int, int>, std::vector<int>> edges;
+  int e = 0;
+  for (const ElementBlock& b : m.blocks) {
+    const int n = nodes_per_element(b.type);
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r, ++e) {
+      if (!is_shell(b.type)) continue;
+      for (int k = 0; k < n; ++k) {
+        const int a = b.conn(r, k), c = b.conn(r, (k + 1) % n);
+        edges[{std::min(a, c), std::max(a, c)}].push_back(e);
+      }
+    }
+  }
+  return edges;
+}
+
+double median_edge(const FeMesh& m) {
+  std::vector<double> len;
+  for (const auto& [edge, uses] : shell_edges(m)) len.push_back((m.nodes.row(edge.first) - m.nodes.row(edge.second)).norm());
+  if (len.empty()) return 0;
+  std::nth_element(len.begin(), len.begin() + static_cast<std::ptrdiff_t>(len.size() / 2), len.end());
+  return len[len.size() / 2];
+}
+
+// The rest's triangles turned to agree with their neighbours across every shared edge (a shared edge
+// runs one way in one element and the other way in the next), starting from the patches, whose
+// orientation is the feature's (outward). gmsh orients a face's triangles by the face's parameters, not
+// by the solid; CalculiX averages shell normals at a node and fails where they cancel. A rest region
+// that touches no patch keeps its first triangle's turn, and all of it is turned if the closed part's
+// signed volume comes out negative.
+void orient_like_patches(FeMesh& m, int patch_elements) {
+  struct Ref { std::size_t block; Eigen::Index row; };
+  std::vector<Ref> el;
+  for (std::size_t b = 0; b < m.blocks.size(); ++b)
+    for (Eigen::Index r = 0; r < m.blocks[b].conn.rows(); ++r) el.push_back({b, r});
+  const auto edges = shell_edges(m);
+  auto runs = [&](int e, int a, int c) {  // +1 if element e runs a->c, -1 if c->a
+    const ElementBlock& b = m.blocks[el[static_cast<std::size_t>(e)].block];
+    const int n = nodes_per_element(b.type);
+    const auto row = b.conn.row(el[static_cast<std::size_t>(e)].row);
+    for (int k = 0; k < n; ++k) {
+      if (row(k) == a && row((k + 1) % n) == c) return 1;
+      if (row(k) == c && row((k + 1) % n) == a) return -1;
+    }
+    return 0;
+  };
+  auto flip = [&](int e) {
+    ElementBlock& b = m.blocks[el[static_cast<std::size_t>(e)].block];
+    auto row = b.conn.row(el[static_cast<std::size_t>(e)].row);
+    const int n = nodes_per_element(b.type);
+    for (int k = 1; k < (n + 1) / 2; ++k) std::swap(row(k), row(n - k));  // 0 2 1 / 0 3 2 1
+  };
+  std::vector<std::vector<std::pair<int, int>>> around(el.size());  // element -> its edges
+  for (const auto& [edge, uses] : edges)
+    for (const int e : uses) around[static_cast<std::size_t>(e)].push_back(edge);
+  std::vector<char> done(el.size(), 0);
+  std::vector<int> queue;
+  auto spread = [&](std::vector<int> seeds) {
+    std::vector<int> comp;
+    for (const int s : seeds) done[static_cast<std::size_t>(s)] = 1;
+    queue = seeds;
+    while (!queue.empty()) {
+      const int e = queue.back();
+      queue.pop_back();
+      comp.push_back(e);
+      for (const auto& edge : around[static_cast<std::size_t>(e)]) {
+        const auto& uses = edges.at(edge);
+        if (uses.size() != 2) continue;  // free or non-manifold: no rule
+        const int o = uses[0] == e ? uses[1] : uses[0];
+        if (done[static_cast<std::size_t>(o)]) continue;
+        if (runs(e, edge.first, edge.second) == runs(o, edge.first, edge.second)) flip(o);
+        done[static_cast<std::size_t>(o)] = 1;
+        queue.push_back(o);
+      }
+    }
+    return comp;
+  };
+  std::vector<int> seeds;
+  for (int e = 0; e < patch_elements && e < static_cast<int>(el.size()); ++e) seeds.push_back(e);
+  if (!seeds.empty()) spread(seeds);
+  for (int e = 0; e < static_cast<int>(el.size()); ++e) {
+    if (done[static_cast<std::size_t>(e)] || !is_shell(m.blocks[el[static_cast<std::size_t>(e)].block].type)) continue;
+    const std::vector<int> comp = spread({e});
+    double vol = 0;  // signed volume of the region (meaningful when it is closed)
+    for (const int c : comp) {
+      const ElementBlock& b = m.blocks[el[static_cast<std::size_t>(c)].block];
+      const auto row = b.conn.row(el[static_cast<std::size_t>(c)].row);
+      const int n = nodes_per_element(b.type);
+      const Eigen::Vector3d p0 = m.nodes.row(row(0)).transpose();
+      for (int k = 1; k + 1 < n; ++k) {
+        const Eigen::Vector3d p1 = m.nodes.row(row(k)).transpose(), p2 = m.nodes.row(row(k + 1)).transpose();
+        vol += p0.dot(p1.cross(p2));
+      }
+    }
+    if (vol < 0)
+      for (const int c : comp) flip(c);
+  }
+}
+
+}  // namespace
+
+std::string set_name(const std::string& text) {
+  std::string o;
+  for (const unsigned char c : text) {
+    if (std::isalnum(c)) o += static_cast<char>(std::toupper(c));
+    else if (!o.empty() && o.back() != '_') o += '_';
+  }
+  while (!o.empty() && o.back() == '_') o.pop_back();
+  return o.empty() ? "FEATURE" : o;
+}
+
+std::vector<int> border_nodes(const FeMesh& m) {
+  std::set<int> out;
+  for (const auto& [edge, uses] : shell_edges(m))
+    if (uses.size() == 1) {
+      out.insert(edge.first);
+      out.insert(edge.second);
+    }
+  return {out.begin(), out.end()};
+}
+
+std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches) {
+  std::vector<std::size_t> order(patches.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return patches[a].score > patches[b].score; });
+  std::map<int, std::size_t> owner;  // face -> kept patch
+  std::vector<bool> keep(patches.size(), true);
+  std::vector<std::string> lines;
+  for (const std::size_t i : order) {
+    std::size_t other = patches.size();
+    for (const int f : patches[i].faces)
+      if (auto it = owner.find(f); it != owner.end()) {
+        other = it->second;
+        break;
+      }
+    if (other < patches.size()) {
+      keep[i] = false;
+      std::ostringstream s;
+      s << patches[i].name << " (score " << patches[i].score << ") shares faces with " << patches[other].name << " (score "
+        << patches[other].score << "): left out";
+      lines.push_back(s.str());
+      continue;
+    }
+    for (const int f : patches[i].faces) owner[f] = i;
+  }
+  std::vector<PartPatch> kept;
+  for (std::size_t i = 0; i < patches.size(); ++i)
+    if (keep[i]) kept.push_back(std::move(patches[i]));
+  patches = std::move(kept);
+  return lines;
+}
+
+std::string part_mesh_job(const std::string& part_path, int part_faces, double size, const std::vector<PartPatch>& patches,
+                          bool plain, double tolerance_factor) {
+  nlohmann::json j;
+  j["part"] = part_path;
+  j["plain"] = plain;
+  j["faces"] = part_faces;
+  j["size"] = size;
+  j["patches"] = nlohmann::json::array();
+  long key = 0;
+  for (const PartPatch& p : patches) {
+    nlohmann::json pj;
+    pj["faces"] = p.faces;
+    pj["tolerance"] = tolerance_factor * median_edge(p.mesh);
+    pj["nodes"] = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < p.mesh.nodes.rows(); ++i)
+      pj["nodes"].push_back({key + i, p.mesh.nodes(i, 0), p.mesh.nodes(i, 1), p.mesh.nodes(i, 2)});
+    pj["border"] = nlohmann::json::array();
+    for (const int b : border_nodes(p.mesh)) pj["border"].push_back(key + b);
+    pj["rigid"] = nlohmann::json::object();
+    for (const std::string& r : p.rigid_sets) {
+      // rigid_sets hold the assembled names (NAME_SET); the patch's own set is SET
+      const std::string own = r.substr(std::min(r.size(), p.name.size() + 1));
+      if (const auto it = p.mesh.node_sets.find(own); it != p.mesh.node_sets.end()) {
+        auto& keys = pj["rigid"][r];
+        for (const int v : it->second) keys.push_back(key + v);
+      }
+    }
+    key += p.mesh.nodes.rows();
+    j["patches"].push_back(std::move(pj));
+  }
+  return j.dump();
+}
+
+void conformity(const FeMesh& m, double tolerance, std::size_t* free_edges, std::size_t* duplicate_nodes,
+                std::vector<int>* free_edge_elements) {
+  if (free_edges || free_edge_elements) {
+    std::size_t n = 0;
+    std::set<int> els;
+    for (const auto& [edge, uses] : shell_edges(m))
+      if (uses.size() == 1) {
+        ++n;
+        els.insert(uses[0]);
+      }
+    if (free_edges) *free_edges = n;
+    if (free_edge_elements) free_edge_elements->assign(els.begin(), els.end());
+  }
+  if (duplicate_nodes) {
+    // nodes sorted along x; a pair closer than tolerance is within tolerance in x
+    const Eigen::Index n = m.nodes.rows();
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) order[static_cast<std::size_t>(i)] = i;
+    std::sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return m.nodes(a, 0) < m.nodes(b, 0); });
+    std::set<Eigen::Index> dup;
+    for (std::size_t a = 0; a < order.size(); ++a)
+      for (std::size_t b = a + 1; b < order.size() && m.nodes(order[b], 0) - m.nodes(order[a], 0) <= tolerance; ++b)
+        if ((m.nodes.row(order[a]) - m.nodes.row(order[b])).norm() <= tolerance) dup.insert(order[b]);
+    *duplicate_nodes = dup.size();
+  }
+}
+
+FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::string& rest_json, PartMeshReport* report) {
+  const nlohmann::json j = nlohmann::json::parse(rest_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) bad_answer("its answer is not a JSON object");
+  for (const char* k : {"nodes", "triangles", "joined", "moved"})
+    if (!j.contains(k) || !j[k].is_array()) bad_answer(std::string("its answer has no \"") + k + "\" list");
+  PartMeshReport rep;
+  FeMesh out;
+  long total = 0;
+  for (const PartPatch& p : patches) total += p.mesh.nodes.rows();
+  const long rest_n = static_cast<long>(j["nodes"].size());
+  out.nodes.resize(total + rest_n, 3);
+  out.node_ids.resize(static_cast<std::size_t>(total + rest_n));
+  for (long i = 0; i < total + rest_n; ++i) out.node_ids[static_cast<std::size_t>(i)] = i + 1;
+  long base = 0;
+  long next_element = 1;
+  for (const PartPatch& p : patches) {
+    out.nodes.middleRows(base, p.mesh.nodes.rows()) = p.mesh.nodes;
+    const std::string pre = p.name + "_";
+    std::vector<int> mine;
+    const int first_element = static_cast<int>(out.num_elements());
+    for (const ElementBlock& b : p.mesh.blocks) {
+      ElementBlock nb = b;
+      nb.conn.array() += static_cast<int>(base);
+      nb.elset = b.elset.empty() ? p.name : pre + b.elset;
+      for (auto& id : nb.ids) id = next_element++;
+      out.blocks.push_back(std::move(nb));
+    }
+    const int n_el = static_cast<int>(p.mesh.num_elements());
+    for (const auto& [name, members] : p.mesh.element_sets) {
+      auto& s = out.element_sets[pre + name];
+      for (const int e : members) s.push_back(first_element + e);
+    }
+    auto& all = out.element_sets[p.name];
+    for (int e = 0; e < n_el; ++e) all.push_back(first_element + e);
+    for (const auto& [name, members] : p.mesh.node_sets) {
+      auto& s = out.node_sets[pre + name];
+      for (const int v : members) s.push_back(static_cast<int>(base) + v);
+    }
+    rep.patch_nodes += static_cast<std::size_t>(p.mesh.nodes.rows());
+    rep.patch_elements += p.mesh.num_elements();
+    base += p.mesh.nodes.rows();
+  }
+  rep.patches = patches.size();
+  // patch nodes put onto the B-rep
+  for (const auto& mv : j["moved"]) {
+    if (!mv.is_array() || mv.size() != 4) bad_answer("a \"moved\" entry is not [key, x, y, z]");
+    const long k = mv[0].get<long>();
+    if (k < 0 || k >= total) bad_answer("a moved node's key " + std::to_string(k) + " is not a patch node");
+    out.nodes.row(k) << mv[1].get<double>(), mv[2].get<double>(), mv[3].get<double>();
+    ++rep.moved_nodes;
+  }
+  // the rest's nodes: gmsh tag -> row
+  std::unordered_map<long, int> row_of;
+  long r = total;
+  for (const auto& nd : j["nodes"]) {
+    if (!nd.is_array() || nd.size() != 4) bad_answer("a node is not [tag, x, y, z]");
+    out.nodes.row(r) << nd[1].get<double>(), nd[2].get<double>(), nd[3].get<double>();
+    row_of[nd[0].get<long>()] = static_cast<int>(r++);
+  }
+  for (const auto& jn : j["joined"]) {
+    const long k = jn[1].get<long>();
+    if (k < 0 || k >= total) bad_answer("a joined node's key " + std::to_string(k) + " is not a patch node");
+    row_of[jn[0].get<long>()] = static_cast<int>(k);
+    ++rep.joined_nodes;
+  }
+  ElementBlock rest;
+  rest.type = ElementType::Tri3;
+  rest.elset = "PART_REST";
+  rest.conn.resize(static_cast<Eigen::Index>(j["triangles"].size()), 3);
+  Eigen::Index t = 0;
+  for (const auto& tri : j["triangles"]) {
+    if (!tri.is_array() || tri.size() != 4) bad_answer("a triangle is not [face, n1, n2, n3]");
+    for (int k = 0; k < 3; ++k) {
+      const auto it = row_of.find(tri[static_cast<std::size_t>(k + 1)].get<long>());
+      if (it == row_of.end()) bad_answer("a triangle uses node " + std::to_string(tri[static_cast<std::size_t>(k + 1)].get<long>()) + ", which it does not list");
+      rest.conn(t, k) = it->second;
+    }
+    rest.ids.push_back(next_element++);
+    ++t;
+  }
+  rep.rest_nodes = static_cast<std::size_t>(rest_n);
+  rep.rest_elements = static_cast<std::size_t>(rest.conn.rows());
+  if (rest.conn.rows() > 0) {
+    const int first = static_cast<int>(out.num_elements());
+    auto& s = out.element_sets["PART_REST"];
+    for (Eigen::Index e = 0; e < rest.conn.rows(); ++e) s.push_back(first + static_cast<int>(e));
+    out.blocks.push_back(std::move(rest));
+  }
+  orient_like_patches(out, static_cast<int>(rep.patch_elements));
+  // support
+  std::vector<int> fixed;
+  if (j.contains("fixed_nodes"))
+    for (const auto& tg : j["fixed_nodes"])
+      if (auto it = row_of.find(tg.get<long>()); it != row_of.end()) fixed.push_back(it->second);
+  if (j.contains("fixed_keys"))
+    for (const auto& k : j["fixed_keys"])
+      if (k.get<long>() >= 0 && k.get<long>() < total) fixed.push_back(static_cast<int>(k.get<long>()));
+  if (j.contains("rigid_nodes") && j["rigid_nodes"].is_object())  // a plain mesh's bolt faces
+    for (const auto& [name, tags] : j["rigid_nodes"].items()) {
+      auto& s = out.node_sets[name];
+      for (const auto& tg : tags)
+        if (auto it = row_of.find(tg.get<long>()); it != row_of.end()) s.push_back(it->second);
+    }
+  std::sort(fixed.begin(), fixed.end());
+  fixed.erase(std::unique(fixed.begin(), fixed.end()), fixed.end());
+  if (!fixed.empty()) out.node_sets["FIXED"] = fixed;
+  for (auto& [name, s] : out.node_sets) {
+    std::sort(s.begin(), s.end());
+    s.erase(std::unique(s.begin(), s.end()), s.end());
+  }
+  rep.fixed_face = j.value("fixed_face", 0);
+  if (j.contains("report")) rep.mesher_report = j["report"].dump();
+  // conformity: border nodes left out, free edges, duplicates
+  std::set<long> joined_keys;
+  for (const auto& jn : j["joined"]) joined_keys.insert(jn[1].get<long>());
+  base = 0;
+  for (const PartPatch& p : patches) {
+    for (const int b : border_nodes(p.mesh))
+      if (!joined_keys.count(base + b)) ++rep.border_nodes_not_joined;
+    base += p.mesh.nodes.rows();
+  }
+  const Eigen::Vector3d lo = out.nodes.colwise().minCoeff(), hi = out.nodes.colwise().maxCoeff();
+  std::vector<int> free_els;
+  conformity(out, 1e-9 * std::max(1.0, (hi - lo).norm()), &rep.free_edges, &rep.duplicate_nodes, &free_els);
+  for (const int e : free_els)
+    if (e < static_cast<int>(rep.patch_elements)) ++rep.free_edges_at_patches;
+  if (report) *report = rep;
+  return out;
+}
+
+std::string fill_job(const FeMesh& surface, double size) {
+  nlohmann::json j;
+  j["fill"] = true;
+  j["size"] = size;
+  j["nodes"] = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < surface.nodes.rows(); ++i)
+    j["nodes"].push_back({i + 1, surface.nodes(i, 0), surface.nodes(i, 1), surface.nodes(i, 2)});
+  j["triangles"] = nlohmann::json::array();
+  for (const ElementBlock& b : surface.blocks) {
+    if (!is_shell(b.type)) continue;
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
+      const auto c = b.conn.row(r);
+      if (b.type == ElementType::Tri3) {
+        j["triangles"].push_back({c(0) + 1, c(1) + 1, c(2) + 1});
+        continue;
+      }
+      // a quad becomes two triangles across its shorter diagonal
+      const double d02 = (surface.nodes.row(c(0)) - surface.nodes.row(c(2))).norm(),
+                   d13 = (surface.nodes.row(c(1)) - surface.nodes.row(c(3))).norm();
+      if (d02 <= d13) {
+        j["triangles"].push_back({c(0) + 1, c(1) + 1, c(2) + 1});
+        j["triangles"].push_back({c(0) + 1, c(2) + 1, c(3) + 1});
+      } else {
+        j["triangles"].push_back({c(0) + 1, c(1) + 1, c(3) + 1});
+        j["triangles"].push_back({c(1) + 1, c(2) + 1, c(3) + 1});
+      }
+    }
+  }
+  return j.dump();
+}
+
+FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
+  const nlohmann::json j = nlohmann::json::parse(fill_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("nodes") || !j.contains("tets") || !j["tets"].is_array())
+    bad_answer("its tetrahedra answer is not {\"nodes\": [...], \"tets\": [...]}");
+  FeMesh out;
+  const Eigen::Index n0 = surface.nodes.rows();
+  out.nodes.resize(n0 + static_cast<Eigen::Index>(j["nodes"].size()), 3);
+  out.nodes.topRows(n0) = surface.nodes;
+  std::unordered_map<long, int> inner;
+  Eigen::Index r = n0;
+  for (const auto& nd : j["nodes"]) {
+    if (!nd.is_array() || nd.size() != 4) bad_answer("an inner node is not [tag, x, y, z]");
+    out.nodes.row(r) << nd[1].get<double>(), nd[2].get<double>(), nd[3].get<double>();
+    inner[nd[0].get<long>()] = static_cast<int>(r++);
+  }
+  out.node_ids.resize(static_cast<std::size_t>(out.nodes.rows()));
+  for (Eigen::Index i = 0; i < out.nodes.rows(); ++i) out.node_ids[static_cast<std::size_t>(i)] = i + 1;
+  ElementBlock b;
+  b.type = ElementType::Tet4;
+  b.elset = "PART_SOLID";
+  b.conn.resize(static_cast<Eigen::Index>(j["tets"].size()), 4);
+  Eigen::Index t = 0;
+  for (const auto& tet : j["tets"]) {
+    if (!tet.is_array() || tet.size() != 4) bad_answer("a tetrahedron is not [n1, n2, n3, n4]");
+    for (int k = 0; k < 4; ++k) {
+      const long v = tet[static_cast<std::size_t>(k)].get<long>();
+      if (v > 0 && v <= n0) b.conn(t, k) = static_cast<int>(v - 1);
+      else if (auto it = inner.find(-v); v < 0 && it != inner.end()) b.conn(t, k) = it->second;
+      else bad_answer("a tetrahedron uses node " + std::to_string(v) + ", which is neither a surface node nor listed");
+    }
+    // positive volume (femesh.h's convention)
+    const Eigen::Vector3d p0 = out.nodes.row(b.conn(t, 0)).transpose(), p1 = out.nodes.row(b.conn(t, 1)).transpose(),
+                          p2 = out.nodes.row(b.conn(t, 2)).transpose(), p3 = out.nodes.row(b.conn(t, 3)).transpose();
+    if ((p1 - p0).cross(p2 - p0).dot(p3 - p0) < 0) std::swap(b.conn(t, 1), b.conn(t, 2));
+    b.ids.push_back(static_cast<long>(t + 1));
+    ++t;
+  }
+  out.element_sets["PART_SOLID"].resize(static_cast<std::size_t>(t));
+  for (Eigen::Index e = 0; e < t; ++e) out.element_sets["PART_SOLID"][static_cast<std::size_t>(e)] = static_cast<int>(e);
+  out.blocks.push_back(std::move(b));
+  out.node_sets = surface.node_sets;  // the surface nodes keep their rows
+  return out;
+}
+
+void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path) {
+  std::ofstream o(path);
+  if (!o) throw std::runtime_error(path + ": cannot write");
+  char buf[256];
+  o << "** Linear static analysis written by featureextract mesh-part (CalculiX ccx)\n";
+  o << "*INCLUDE, INPUT=" << mesh_file << "\n";
+  long next = 0;
+  for (const long id : m.node_ids) next = std::max(next, id);
+  std::vector<std::pair<std::string, long>> refs;
+  for (const std::string& s : a.rigid_sets) {
+    const auto it = m.node_sets.find(s);
+    if (it == m.node_sets.end() || it->second.empty()) continue;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const int v : it->second) c += m.nodes.row(v).transpose();
+    c /= static_cast<double>(it->second.size());
+    refs.emplace_back(s, ++next);
+    o << "*NODE, NSET=REF_" << s << "\n";
+    std::snprintf(buf, sizeof(buf), "%ld, %.17g, %.17g, %.17g\n", next, c.x(), c.y(), c.z());
+    o << buf;
+  }
+  long lo = m.node_ids.empty() ? 1 : *std::min_element(m.node_ids.begin(), m.node_ids.end());
+  long hi = m.node_ids.empty() ? 0 : *std::max_element(m.node_ids.begin(), m.node_ids.end());
+  if (hi - lo + 1 == static_cast<long>(m.node_ids.size()))
+    o << "*NSET, NSET=PART_NODES, GENERATE\n" << lo << ", " << hi << ", 1\n";
+  else
+    throw std::invalid_argument(path + ": node ids must be contiguous");
+  o << "*MATERIAL, NAME=STEEL\n*ELASTIC\n";
+  std::snprintf(buf, sizeof(buf), "%.17g, %.17g\n", a.young, a.poisson);
+  o << buf;
+  // one section per element set of the partition (each patch's set, PART_REST)
+  std::snprintf(buf, sizeof(buf), "%.17g\n", a.thickness);
+  for (const std::string& s : a.section_sets) {
+    if (a.solid) o << "*SOLID SECTION, ELSET=" << s << ", MATERIAL=STEEL\n";
+    else o << "*SHELL SECTION, ELSET=" << s << ", MATERIAL=STEEL\n" << buf;
+  }
+  for (const auto& [s, ref] : refs) o << "*RIGID BODY, NSET=" << s << ", REF NODE=" << ref << "\n";
+  o << "*BOUNDARY\n" << a.fixed_set << (a.solid ? ", 1, 3\n" : ", 1, 6\n");
+  o << "*STEP\n*STATIC\n";
+  if (!refs.empty()) {
+    o << "*CLOAD\n";
+    const Eigen::Vector3d d = a.direction.normalized() * a.force;
+    for (const auto& [s, ref] : refs)
+      for (int k = 0; k < 3; ++k)
+        if (d(k) != 0) {
+          std::snprintf(buf, sizeof(buf), "%ld, %d, %.17g\n", ref, k + 1, d(k));
+          o << buf;
+        }
+  }
+  for (const auto& [s, ref] : refs) o << "*NODE PRINT, NSET=REF_" << s << "\nU\n";
+  o << "*NODE PRINT, NSET=PART_NODES\nU\n*NODE FILE\nU\n*EL FILE\nS\n*END STEP\n";
+  if (!o) throw std::runtime_error(path + ": cannot write");
+}
+
+}  // namespace fe

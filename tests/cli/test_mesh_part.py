@@ -1,0 +1,114 @@
+"""One FE mesh of the whole part, solved by CalculiX (issue 12): `featureextract mesh-part` on the example
+plate (5 ribs, 2 screw bosses) with both shipped features, the real gmsh as the mesher and the real ccx
+as the solver, beside the same analysis on a plain gmsh mesh (bench/mesh_part.py does the running and
+reading). Usage: test_mesh_part.py FEATUREEXTRACT MODELS_DIR"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+EXE, MODELS = sys.argv[1], sys.argv[2]
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import mesh_part  # noqa: E402  (bench/mesh_part.py)
+
+PLATE = os.path.join(MODELS, "ribs_bosses.step")
+FEATURES = [os.path.join(ROOT, "Resources", "features", f) for f in ("rib", "boss")]
+
+
+class MeshPart(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.mkdtemp(prefix="fe_mesh_part_")
+        cls.whole = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "whole"), False, ["--solid"])
+        cls.plain = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "plain"), True, ["--solid"])
+        cls.shell = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "shell"), False)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def test_every_instance_carries_its_features_mesh_and_sets(self):
+        names = sorted(i["name"] for i in self.whole["instances"])
+        self.assertEqual(names, [f"RIB_{k}" for k in range(1, 6)] + ["SCREW_BOSS_1", "SCREW_BOSS_2"])
+        with open(os.path.join(self.dir, "whole", "part.inp")) as f:
+            inp = f.read()
+        for k in range(1, 6):
+            self.assertIn(f"*NSET, NSET=RIB_{k}_RIB_TOP", inp)
+            self.assertIn(f"*NSET, NSET=RIB_{k}_RIB_ROOT", inp)
+        for k in (1, 2):
+            self.assertIn(f"*NSET, NSET=SCREW_BOSS_{k}_BOLT_RIGID", inp)
+        self.assertIn("ELSET=PART_REST", inp)
+        # the patches are the features' meshes: 5 x 918 rib elements and 2 x 228 boss elements
+        self.assertEqual(self.whole["mesh"]["patch_elements"], 5 * 918 + 2 * 228)
+        self.assertGreater(self.whole["mesh"]["rest_elements"], 1000)
+
+    def test_the_surface_mesh_is_one_conforming_closed_mesh(self):
+        c = self.whole["conformity"]
+        self.assertEqual(c["free_edges"], 0, c)  # a closed solid's surface: no free edge anywhere
+        self.assertEqual(c["duplicate_nodes"], 0, c)
+        self.assertEqual(c["border_nodes_not_joined"], 0, c)
+        self.assertGreater(self.whole["mesh"]["joined_nodes"], 7 * 12)
+        self.assertEqual(self.whole["quality"]["rest"]["inverted"], 0)
+        # every patch node was put onto the part's B-rep but a few
+        self.assertGreaterEqual(self.whole["mesh"]["moved_onto_brep"], 0.99 * self.whole["mesh"]["patch_nodes"])
+
+    def test_calculix_solves_the_solid_and_the_shell_without_a_word(self):
+        for r in (self.whole, self.plain, self.shell):
+            self.assertEqual(r["ccx"]["exit"], 0, r["ccx"])
+            self.assertEqual(r["ccx"]["errors"], 0, r["ccx"])
+            self.assertEqual(r["ccx"]["warnings"], 0, r["ccx"])
+        self.assertEqual(self.whole["solid"]["quality"]["inverted"], 0)
+        self.assertGreater(self.whole["solid"]["elements"], self.whole["mesh"]["elements"])
+
+    def test_the_answer_agrees_with_a_plain_mesh_of_the_part(self):
+        res = mesh_part.compare(self.whole, self.plain)
+        w, p, d = res["whole"], res["plain"], res["relative_difference"]
+        self.assertEqual(sorted(w["load_point_displacement"]), ["SCREW_BOSS_1_BOLT_RIGID", "SCREW_BOSS_2_BOLT_RIGID"])
+        for k, v in w["load_point_displacement"].items():
+            self.assertGreater(v, 0)  # the load moved the bolt
+        self.assertLess(d["load_point_displacement"], 0.10, res)
+        self.assertLess(d["max_displacement"], 0.10, res)
+        self.assertGreater(w["nodes_away"], 1000)
+        self.assertLess(d["max_von_mises_away"], 0.30, res)
+
+
+class MeshPartErrors(unittest.TestCase):
+    def run_cli(self, *args, env=None):
+        out = tempfile.mkdtemp(prefix="fe_mesh_part_err_")
+        r = subprocess.run([EXE, "mesh-part", "--feature", FEATURES[0], "--output", out, *args], capture_output=True,
+                           text=True, timeout=600, env=env)
+        return r, out
+
+    def assert_one_line(self, r, code, fragment):
+        self.assertEqual(r.returncode, code, r.stderr)
+        errors = [l for l in r.stderr.strip().splitlines() if "%" not in l]
+        self.assertEqual(len(errors), 1, r.stderr)
+        self.assertIn(fragment, errors[0])
+
+    def test_a_triangle_mesh_target_is_refused(self):
+        stl = os.path.join(MODELS, "ribs_bosses_cracked.stl")
+        r, out = self.run_cli("--target", stl, "--quiet")
+        self.assert_one_line(r, 3, stl)
+        self.assertFalse(os.path.exists(os.path.join(out, "part.inp")))
+
+    def test_a_missing_mesher_is_named(self):
+        env = dict(os.environ, FE_GMSH_REST="/nonexistent/fe_gmsh_rest.py")
+        r, out = self.run_cli("--target", PLATE, "--quiet", env=env)
+        self.assert_one_line(r, 1, "fe_gmsh_rest.py is missing")
+
+    def test_a_mesher_failure_is_one_line_and_writes_no_mesh(self):
+        fake = os.path.join(tempfile.mkdtemp(), "fe_gmsh_rest.py")
+        with open(fake, "w") as f:
+            f.write("import sys\nsys.stderr.write('fe_gmsh_rest: part.step: gmsh cannot read it\\n')\nsys.exit(2)\n")
+        env = dict(os.environ, FE_GMSH_REST=fake)
+        r, out = self.run_cli("--target", PLATE, "--quiet", env=env)
+        self.assert_one_line(r, 3, "gmsh cannot read it")
+        self.assertFalse(os.path.exists(os.path.join(out, "part.inp")))
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"])

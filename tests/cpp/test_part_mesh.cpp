@@ -1,0 +1,182 @@
+// One mesh of the whole part (issue 12): set names, patch borders, overlaps, the assembly of the
+// mesher's answer with the patches (joined nodes, orientation, sets, conformity), the CalculiX deck.
+// The mesher itself (gmsh) is exercised by tests/cli/test_mesh_part.py.
+#include "featureextract/part_mesh.h"
+
+#include "featureextract/mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace {
+
+// A patch of one triangle (0,0,0) (1,0,0) (0,1,0), turned so that its normal is -z: the outward
+// normal of the bottom face of the tetrahedron with apex (0,0,1).
+fe::PartPatch one_triangle_patch() {
+  fe::PartPatch p;
+  p.name = "BOSS_1";
+  p.feature = "boss";
+  p.faces = {1};
+  p.score = 0.9;
+  p.mesh.nodes.resize(3, 3);
+  p.mesh.nodes << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  p.mesh.node_ids = {1, 2, 3};
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Tri3;
+  b.conn.resize(1, 3);
+  b.conn << 0, 2, 1;
+  b.ids = {1};
+  b.elset = "BOSS";
+  p.mesh.blocks.push_back(b);
+  p.mesh.element_sets["BOSS"] = {0};
+  p.mesh.node_sets["BOLT_RIGID"] = {0, 1};
+  return p;
+}
+
+// The mesher's answer for the other three faces of the tetrahedron: the apex is the rest's own node
+// (tag 7); tags 4, 5, 6 are the patch's nodes 0, 1, 2 (joined); triangles turned every which way.
+const char* kAnswer = R"({
+  "nodes": [[7, 0, 0, 1]],
+  "triangles": [[2, 4, 5, 7], [3, 5, 6, 7], [4, 4, 6, 7]],
+  "joined": [[4, 0], [5, 1], [6, 2]],
+  "moved": [[1, 1, 0, 0]],
+  "fixed_face": 2, "fixed_nodes": [7], "fixed_keys": [0, 1],
+  "report": {"rest_faces": 3}
+})";
+
+// +1 / -1: the element runs a->b / b->a; 0: not an edge of it
+int runs(const fe::FeMesh& m, int element, int a, int b) {
+  int e = 0;
+  for (const auto& bl : m.blocks)
+    for (Eigen::Index r = 0; r < bl.conn.rows(); ++r, ++e)
+      if (e == element) {
+        const int n = static_cast<int>(bl.conn.cols());
+        for (int k = 0; k < n; ++k) {
+          if (bl.conn(r, k) == a && bl.conn(r, (k + 1) % n) == b) return 1;
+          if (bl.conn(r, k) == b && bl.conn(r, (k + 1) % n) == a) return -1;
+        }
+      }
+  return 0;
+}
+
+}  // namespace
+
+TEST(PartMesh, SetNamesAreUpperCaseWordsJoinedByUnderscores) {
+  EXPECT_EQ(fe::set_name("screw boss"), "SCREW_BOSS");
+  EXPECT_EQ(fe::set_name("  rib -- 2.5mm "), "RIB_2_5MM");
+  EXPECT_EQ(fe::set_name("***"), "FEATURE");
+}
+
+TEST(PartMesh, BorderNodesAreThoseOfFreeEdges) {
+  // 2 x 2 quads on a 3 x 3 grid of nodes: all but the centre node are on the border
+  fe::FeMesh m;
+  m.nodes.resize(9, 3);
+  for (int i = 0; i < 9; ++i) m.nodes.row(i) << i % 3, i / 3, 0;
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Quad4;
+  b.conn.resize(4, 4);
+  b.conn << 0, 1, 4, 3, 1, 2, 5, 4, 3, 4, 7, 6, 4, 5, 8, 7;
+  m.blocks.push_back(b);
+  EXPECT_EQ(fe::border_nodes(m), (std::vector<int>{0, 1, 2, 3, 5, 6, 7, 8}));
+}
+
+TEST(PartMesh, OfTwoPatchesOnTheSameFacesTheBetterStays) {
+  std::vector<fe::PartPatch> ps(3);
+  ps[0].name = "RIB_1", ps[0].faces = {1, 2}, ps[0].score = 0.7;
+  ps[1].name = "BOSS_1", ps[1].faces = {2, 3}, ps[1].score = 0.9;
+  ps[2].name = "RIB_2", ps[2].faces = {4}, ps[2].score = 0.5;
+  const auto lines = fe::resolve_overlaps(ps);
+  ASSERT_EQ(ps.size(), 2u);
+  EXPECT_EQ(ps[0].name, "BOSS_1");
+  EXPECT_EQ(ps[1].name, "RIB_2");
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_NE(lines[0].find("RIB_1"), std::string::npos);
+  EXPECT_NE(lines[0].find("BOSS_1"), std::string::npos);
+}
+
+TEST(PartMesh, TheRestJoinsThePatchIntoOneClosedConsistentlyTurnedSurface) {
+  const std::vector<fe::PartPatch> patches{one_triangle_patch()};
+  fe::PartMeshReport rep;
+  const fe::FeMesh m = fe::assemble_part_mesh(patches, kAnswer, &rep);
+  ASSERT_EQ(m.nodes.rows(), 4);  // the three joined nodes are the patch's: no duplicates
+  ASSERT_EQ(m.num_elements(), 4u);
+  EXPECT_EQ(rep.joined_nodes, 3u);
+  EXPECT_EQ(rep.duplicate_nodes, 0u);
+  EXPECT_EQ(rep.free_edges, 0u);
+  EXPECT_EQ(rep.border_nodes_not_joined, 0u);
+  EXPECT_EQ(rep.fixed_face, 2);
+  EXPECT_EQ(rep.moved_nodes, 1u);
+  // every edge runs one way in one element and the other way in the other: one orientation
+  const std::vector<std::pair<int, int>> edges{{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  for (const auto& [a, b] : edges) {
+    int sum = 0, uses = 0;
+    for (int e = 0; e < 4; ++e) {
+      const int r = runs(m, e, a, b);
+      sum += r;
+      uses += r != 0;
+    }
+    EXPECT_EQ(uses, 2) << a << "-" << b;
+    EXPECT_EQ(sum, 0) << a << "-" << b;
+  }
+  // the patch keeps its turn (outward, -z), so the closed surface encloses a positive volume
+  EXPECT_EQ(runs(m, 0, 0, 2), 1);
+  double vol = 0;
+  int e = 0;
+  for (const auto& bl : m.blocks)
+    for (Eigen::Index r = 0; r < bl.conn.rows(); ++r, ++e) {
+      const Eigen::Vector3d p0 = m.nodes.row(bl.conn(r, 0)).transpose(), p1 = m.nodes.row(bl.conn(r, 1)).transpose(),
+                            p2 = m.nodes.row(bl.conn(r, 2)).transpose();
+      vol += p0.dot(p1.cross(p2)) / 6;
+    }
+  EXPECT_NEAR(vol, 1.0 / 6, 1e-12);
+  // sets: the patch's renamed, its own, the rest, the support
+  EXPECT_EQ(m.element_sets.at("BOSS_1"), (std::vector<int>{0}));
+  EXPECT_EQ(m.element_sets.at("BOSS_1_BOSS"), (std::vector<int>{0}));
+  EXPECT_EQ(m.element_sets.at("PART_REST"), (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(m.node_sets.at("BOSS_1_BOLT_RIGID"), (std::vector<int>{0, 1}));
+  EXPECT_EQ(m.node_sets.at("FIXED"), (std::vector<int>{0, 1, 3}));
+  EXPECT_EQ(m.blocks.back().elset, "PART_REST");
+}
+
+TEST(PartMesh, AnAnswerThatDoesNotFitThePatchesIsAnError) {
+  const std::vector<fe::PartPatch> patches{one_triangle_patch()};
+  for (const std::string bad : {std::string("not json"), std::string(R"({"nodes": []})"),
+                                std::string(R"({"nodes": [], "triangles": [[2, 4, 5, 9]], "joined": [], "moved": []})"),
+                                std::string(R"({"nodes": [], "triangles": [], "joined": [[4, 99]], "moved": []})")}) {
+    try {
+      fe::assemble_part_mesh(patches, bad);
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const fe::InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("fe_gmsh_rest: ", 0), 0u) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+    }
+  }
+}
+
+TEST(PartMesh, TheAnalysisDeckHoldsThePartAndLoadsEachBoltThroughARigidBody) {
+  const std::vector<fe::PartPatch> patches{one_triangle_patch()};
+  const fe::FeMesh m = fe::assemble_part_mesh(patches, kAnswer);
+  fe::StaticAnalysis a;
+  a.rigid_sets = {"BOSS_1_BOLT_RIGID", "NO_SUCH_SET"};
+  a.section_sets = {"BOSS_1", "PART_REST"};
+  a.force = 50;
+  const std::string path = ::testing::TempDir() + "fe_part_analysis.inp";
+  fe::write_ccx_static(m, "part.inp", a, path);
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string deck = ss.str();
+  EXPECT_NE(deck.find("*INCLUDE, INPUT=part.inp"), std::string::npos);
+  // a reference node after the mesh's last (4), at the centroid of the bolt set's nodes 0 and 1
+  EXPECT_NE(deck.find("5, 0.5, 0, 0"), std::string::npos) << deck;
+  EXPECT_NE(deck.find("*RIGID BODY, NSET=BOSS_1_BOLT_RIGID, REF NODE=5"), std::string::npos);
+  EXPECT_EQ(deck.find("NO_SUCH_SET"), std::string::npos);  // a set that is not there is not loaded
+  EXPECT_NE(deck.find("*SHELL SECTION, ELSET=BOSS_1, MATERIAL=STEEL"), std::string::npos);
+  EXPECT_NE(deck.find("*SHELL SECTION, ELSET=PART_REST, MATERIAL=STEEL"), std::string::npos);
+  EXPECT_NE(deck.find("*BOUNDARY\nFIXED, 1, 6"), std::string::npos);
+  EXPECT_NE(deck.find("*CLOAD\n5, 3, -50"), std::string::npos);
+  EXPECT_NE(deck.find("*NSET, NSET=PART_NODES, GENERATE\n1, 4, 1"), std::string::npos);
+}
