@@ -30,7 +30,15 @@ def cases(build):
                           "features": [os.path.join(feats, "rib"), os.path.join(feats, "boss")]},
         "boss_only": {"target": os.path.join(build, "models", "boss_only.step"),
                       "features": [os.path.join(feats, "boss")]},
+        # NIST CTC-02's six mounting lugs; the feature is made from one lug's faces (top, the bolt hole's
+        # two halves, the outer arc) by tools/make_feature.py, the hole being the bolt's rigid body
+        "ctc02_lugs": {"target": CTC02, "make_feature": ["--faces", "197,198,199,229", "--rigid-faces", "198,199",
+                                                         "--name", "mounting lug", "--size", "3"],
+                       "extra": ["--size", "10"]},
     }
+
+
+CTC02 = os.path.join(os.path.dirname(ROOT), "shared", "data", "real", "nist_ctc_02_asme1_rc.stp")
 
 
 def run(cmd, cwd=None, timeout=1800):
@@ -185,19 +193,43 @@ def main():
     for name, c in cases(a.build).items():
         if a.case and name not in a.case:
             continue
+        if "make_feature" in c:
+            if not os.path.exists(c["target"]):
+                continue
+            fdir = os.path.join(a.work, name + "_feature")
+            subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "tools", "make_feature.py"), c["target"], fdir]
+                           + c["make_feature"], check=True, capture_output=True)
+            c["features"] = [fdir]
+        extra = c.get("extra", [])
         res = {}
         for plain in (False, True):
             d = os.path.join(a.work, name + ("_plain" if plain else ""))
             os.makedirs(d, exist_ok=True)
-            res[plain] = mesh_and_solve(exe, c["target"], c["features"], d, plain, ["--solid"])
+            try:
+                res[plain] = mesh_and_solve(exe, c["target"], c["features"], d, plain, ["--solid"] + extra)
+            except RuntimeError as e:
+                res[plain] = {"error": str(e)}
         d = os.path.join(a.work, name + "_shell")
         os.makedirs(d, exist_ok=True)
-        shell = mesh_and_solve(exe, c["target"], c["features"], d, False)
+        shell = mesh_and_solve(exe, c["target"], c["features"], d, False, extra)
+        if "error" in res[False] or "error" in res[True]:
+            row = {"case": name, "solid_error": res[False].get("error") or res[True].get("error"),
+                   "instances": len(shell["instances"]), "surface_nodes": shell["mesh"]["nodes"],
+                   "surface_elements": shell["mesh"]["elements"], "conformity": shell["conformity"],
+                   "quality": shell["quality"], "repair": shell.get("repair"), "mesher": shell["mesher"],
+                   "mesh_seconds": shell["mesh_seconds"], "ccx_shell": shell["ccx"]}
+            all_rows.append(row)
+            print(f"{name}: {row['instances']} instances; surface {row['surface_nodes']} nodes / {row['surface_elements']} "
+                  f"elements; conformity {row['conformity']}; patches {row['quality']['patches']['inverted']} inverted; "
+                  f"solid: {row['solid_error']}; ccx on the shell: exit {shell['ccx']['exit']}, "
+                  f"{shell['ccx']['errors']} errors: {shell['ccx']['first_message']}")
+            continue
         w = res[False]
         row = {"case": name, "instances": len(w["instances"]), "surface_nodes": w["mesh"]["nodes"],
                "surface_elements": w["mesh"]["elements"], "solid_nodes": w["solid"]["nodes"],
                "solid_elements": w["solid"]["elements"], "plain_solid_elements": res[True]["solid"]["elements"],
                "conformity": w["conformity"], "quality": w["quality"], "solid_quality": w["solid"]["quality"],
+               "repair": w.get("repair"),
                "mesh_seconds": w["mesh_seconds"], "gmsh_seconds": w["mesher"].get("seconds"),
                "ccx_solid": w["ccx"], "ccx_plain_solid": res[True]["ccx"], "ccx_shell": shell["ccx"]}
         if "u" in w and "u" in res[True]:

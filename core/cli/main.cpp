@@ -187,6 +187,8 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   report["features"] = nlohmann::ordered_json::array();
   int part_faces = 0;
   double feature_size = 0, part_diagonal = 0;
+  std::vector<Eigen::Vector3d> face_centroids;
+  fe::TriangleMesh part_surface;  // the finest tessellation read (quality repair projects onto it)
   fe::TransferOptions topt;
   topt.max_projection = a.max_projection;
   try {
@@ -200,6 +202,21 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       if (!tgt.from_brep()) throw fe::InputError(a.target + ": mesh-part needs a B-rep part (STEP, IGES or BREP), not a triangle mesh");
       part_faces = tgt.num_faces;
       part_diagonal = tgt.diagonal();
+      if (part_surface.triangles.rows() == 0 || tgt.triangles.rows() > part_surface.triangles.rows()) part_surface = tgt;
+      // each face's centroid (of its triangles): the mesher checks that it numbers the faces alike
+      face_centroids.assign(static_cast<std::size_t>(tgt.num_faces), Eigen::Vector3d::Zero());
+      std::vector<double> area(static_cast<std::size_t>(tgt.num_faces), 0.0);
+      for (Eigen::Index t = 0; t < tgt.triangles.rows(); ++t) {
+        const int f = tgt.face_ids(t);
+        if (f < 1 || f > tgt.num_faces) continue;
+        const Eigen::Vector3d p0 = tgt.vertices.row(tgt.triangles(t, 0)).transpose(), p1 = tgt.vertices.row(tgt.triangles(t, 1)).transpose(),
+                              p2 = tgt.vertices.row(tgt.triangles(t, 2)).transpose();
+        const double ar = 0.5 * (p1 - p0).cross(p2 - p0).norm();
+        face_centroids[static_cast<std::size_t>(f - 1)] += ar * (p0 + p1 + p2) / 3.0;
+        area[static_cast<std::size_t>(f - 1)] += ar;
+      }
+      for (std::size_t f = 0; f < area.size(); ++f)
+        face_centroids[f] = area[f] > 0 ? Eigen::Vector3d(face_centroids[f] / area[f]) : Eigen::Vector3d::Constant(NAN);
       if (a.time_limit > 0) {
         if (left() <= 0) throw fe::TimeLimitExceeded("out of time after reading");
         params.time_limit = left();
@@ -259,7 +276,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   const std::string job_path = (fs::path(a.output) / "mesher_job.json").string();
   const std::string answer_path = (fs::path(a.output) / "mesher_answer.json").string();
   const std::string err_path = (fs::path(a.output) / "mesher.log").string();
-  if (!write_atomically(job_path, fe::part_mesh_job(fs::absolute(a.target).string(), part_faces, size, patches, a.plain))) return 4;
+  if (!write_atomically(job_path, fe::part_mesh_job(fs::absolute(a.target).string(), part_faces, size, patches, a.plain, 1.5, face_centroids))) return 4;
   progress("meshing the rest (gmsh)", 0.0);
   const int rc = run_program({"/usr/bin/python3", mesher, job_path, answer_path}, err_path);
   if (rc != 0) {
@@ -278,6 +295,22 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   } catch (const std::exception& e) {
     say(std::string("internal error: ") + e.what());
     return 1;
+  }
+  // quality repair of the patches: their border and joined nodes stay
+  if (!a.plain) {
+    std::vector<int> locked;
+    long base = 0;
+    for (const auto& p : patches) {
+      for (const int b : fe::border_nodes(p.mesh)) locked.push_back(static_cast<int>(base + b));
+      base += p.mesh.nodes.rows();
+    }
+    progress("repairing the patches", 0.0);
+    const fe::RepairReport rr = fe::repair_patches(whole, rep.patch_elements, part_surface, locked);
+    progress("repairing the patches", 1.0);
+    report["repair"] = {{"inverted_before", rr.inverted_before}, {"inverted_after", rr.inverted_after},
+                        {"poor_before", rr.poor_before}, {"poor_after", rr.poor_after},
+                        {"moved_nodes", rr.moved_nodes}, {"passes", rr.passes},
+                        {"rule", "poor: scaled Jacobian below 0.2, measured against the mean normal of the element's neighbours"}};
   }
   const std::vector<fe::ElementQuality> q = fe::element_quality(whole);
   std::vector<fe::ElementQuality> qp(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(rep.patch_elements)),
@@ -342,7 +375,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
                                    {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},
                                    {"bbox_min", {lo.x(), lo.y(), lo.z()}}, {"bbox_max", {hi.x(), hi.y(), hi.z()}},
-                                   {"rigid_sets", p.rigid_sets}});
+                                   {"rigid_sets", p.rigid_sets}, {"quality", quality(fe::summarize(fe::element_quality(p.mesh)))}});
   }
   report["mesh"] = {{"inp", "part.inp"}, {"msh", "part.msh"}, {"nodes", whole.nodes.rows()}, {"elements", whole.num_elements()},
                     {"patch_nodes", rep.patch_nodes}, {"patch_elements", rep.patch_elements},

@@ -2,6 +2,9 @@
 #include "featureextract/part_mesh.h"
 
 #include "featureextract/mesh.h"
+#include "featureextract/transfer.h"
+
+#include "kdtree.h"
 
 #include <nlohmann/json.hpp>
 
@@ -175,9 +178,12 @@ std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches) {
 }
 
 std::string part_mesh_job(const std::string& part_path, int part_faces, double size, const std::vector<PartPatch>& patches,
-                          bool plain, double tolerance_factor) {
+                          bool plain, double tolerance_factor, const std::vector<Eigen::Vector3d>& face_centroids) {
   nlohmann::json j;
   j["part"] = part_path;
+  j["face_centroids"] = nlohmann::json::array();
+  for (const auto& c : face_centroids)
+    j["face_centroids"].push_back(c.allFinite() ? nlohmann::json{c.x(), c.y(), c.z()} : nlohmann::json(nullptr));
   j["plain"] = plain;
   j["faces"] = part_faces;
   j["size"] = size;
@@ -437,6 +443,141 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
   out.blocks.push_back(std::move(b));
   out.node_sets = surface.node_sets;  // the surface nodes keep their rows
   return out;
+}
+
+RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const TriangleMesh& surface, const std::vector<int>& locked,
+                            double min_scaled_jacobian, int passes) {
+  RepairReport rep;
+  if (surface.triangles.rows() == 0 || patch_elements == 0) return rep;
+  // the surface: triangle centroids in a kd-tree
+  Points cent(surface.triangles.rows(), 3);
+  for (Eigen::Index t = 0; t < surface.triangles.rows(); ++t) {
+    const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(), b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                          c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+    cent.row(t) = ((a + b + c) / 3).transpose();
+  }
+  const KdTree3 tree(cent);
+  std::vector<int> idx;
+  std::vector<float> d2;
+  auto foot = [&](const Eigen::Vector3d& q) {
+    tree.knn(q, 8, idx, d2);
+    double best = INFINITY;
+    Eigen::Vector3d out = q;
+    for (const int t : idx) {
+      const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(), b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                            c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+      const Eigen::Vector3d f = closest_point_on_triangle(q, a, b, c);
+      if ((f - q).squaredNorm() < best) {
+        best = (f - q).squaredNorm();
+        out = f;
+      }
+    }
+    return out;
+  };
+  // elements of the patches: rows, and which way the surface's normal counts as outward for them
+  struct El { std::size_t block; Eigen::Index row; };
+  std::vector<El> els;
+  for (std::size_t b = 0; b < m.blocks.size() && els.size() < patch_elements; ++b)
+    for (Eigen::Index r = 0; r < m.blocks[b].conn.rows() && els.size() < patch_elements; ++r) els.push_back({b, r});
+  const std::size_t ne = m.num_elements();
+  // which way is out, per element: the mean normal of its neighbours across its edges (the mesh is
+  // turned consistently; an element folded over has a normal against theirs). The part's triangles
+  // cannot tell: BRepMesh turns them by face.
+  const Points own = element_normals(m);
+  Points ref = Points::Zero(static_cast<Eigen::Index>(ne), 3);
+  {
+    const auto edges = shell_edges(m);
+    for (const auto& [edge, uses] : edges)
+      for (const int e : uses)
+        for (const int o : uses)
+          if (o != e && static_cast<std::size_t>(e) < els.size()) ref.row(e) += own.row(o);
+    for (std::size_t e = 0; e < els.size(); ++e) {
+      const double n = ref.row(static_cast<Eigen::Index>(e)).norm();
+      if (n > 0) ref.row(static_cast<Eigen::Index>(e)) /= n;
+    }
+  }
+  // node -> its patch elements, node -> neighbours along element edges
+  std::vector<std::vector<int>> node_els(static_cast<std::size_t>(m.nodes.rows())), nbr(static_cast<std::size_t>(m.nodes.rows()));
+  for (std::size_t e = 0; e < els.size(); ++e) {
+    const auto row = m.blocks[els[e].block].conn.row(els[e].row);
+    const int n = static_cast<int>(row.size());
+    for (int k = 0; k < n; ++k) {
+      node_els[static_cast<std::size_t>(row(k))].push_back(static_cast<int>(e));
+      nbr[static_cast<std::size_t>(row(k))].push_back(row((k + 1) % n));
+      nbr[static_cast<std::size_t>(row(k))].push_back(row((k + n - 1) % n));
+    }
+  }
+  std::vector<char> is_locked(static_cast<std::size_t>(m.nodes.rows()), 0);
+  for (const int v : locked)
+    if (v >= 0 && v < m.nodes.rows()) is_locked[static_cast<std::size_t>(v)] = 1;
+  auto q_all = [&]() { return element_quality(m, &ref); };
+  std::vector<ElementQuality> q = q_all();
+  auto count_bad = [&](const std::vector<ElementQuality>& qq, std::size_t* inv) {
+    std::size_t bad = 0, iv = 0;
+    for (std::size_t e = 0; e < els.size(); ++e) {
+      bad += qq[e].scaled_jacobian < min_scaled_jacobian;
+      iv += qq[e].inverted;
+    }
+    if (inv) *inv = iv;
+    return bad;
+  };
+  rep.poor_before = count_bad(q, &rep.inverted_before);
+  // the worst scaled Jacobian among a node's elements, with the node at p
+  auto local_worst = [&](int v) {
+    double w = INFINITY;
+    for (const int e : node_els[static_cast<std::size_t>(v)]) {
+      FeMesh one;  // one element, its own nodes
+      const auto& blk = m.blocks[els[static_cast<std::size_t>(e)].block];
+      const auto row = blk.conn.row(els[static_cast<std::size_t>(e)].row);
+      one.nodes.resize(row.size(), 3);
+      ElementBlock b1;
+      b1.type = blk.type;
+      b1.conn.resize(1, row.size());
+      for (Eigen::Index k = 0; k < row.size(); ++k) {
+        one.nodes.row(k) = m.nodes.row(row(k));
+        b1.conn(0, k) = static_cast<int>(k);
+      }
+      one.blocks.push_back(b1);
+      Points r1 = ref.row(e);
+      w = std::min(w, element_quality(one, &r1)[0].scaled_jacobian);
+    }
+    return w;
+  };
+  std::set<int> moved;
+  for (int pass = 0; pass < passes; ++pass) {
+    std::set<int> cand;
+    for (std::size_t e = 0; e < els.size(); ++e)
+      if (q[e].scaled_jacobian < min_scaled_jacobian) {
+        const auto row = m.blocks[els[e].block].conn.row(els[e].row);
+        for (Eigen::Index k = 0; k < row.size(); ++k)
+          if (!is_locked[static_cast<std::size_t>(row(k))]) cand.insert(row(k));
+      }
+    if (cand.empty()) break;
+    ++rep.passes;
+    bool any = false;
+    for (const int v : cand) {
+      const auto& nb = nbr[static_cast<std::size_t>(v)];
+      if (nb.empty()) continue;
+      Eigen::Vector3d avg = Eigen::Vector3d::Zero();
+      for (const int u : nb) avg += m.nodes.row(u).transpose();
+      avg /= static_cast<double>(nb.size());
+      const Eigen::Vector3d old = m.nodes.row(v).transpose();
+      const double before = local_worst(v);
+      m.nodes.row(v) = foot(avg).transpose();
+      const double after = local_worst(v);
+      if (after > before) {
+        moved.insert(v);
+        any = true;
+      } else {
+        m.nodes.row(v) = old.transpose();
+      }
+    }
+    q = q_all();
+    if (!any) break;
+  }
+  rep.moved_nodes = moved.size();
+  rep.poor_after = count_bad(q, &rep.inverted_after);
+  return rep;
 }
 
 void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path) {

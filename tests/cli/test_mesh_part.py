@@ -53,6 +53,9 @@ class MeshPart(unittest.TestCase):
         self.assertEqual(c["border_nodes_not_joined"], 0, c)
         self.assertGreater(self.whole["mesh"]["joined_nodes"], 7 * 12)
         self.assertEqual(self.whole["quality"]["rest"]["inverted"], 0)
+        # the repair leaves no patch element folded over (the transfer leaves one on this plate)
+        self.assertEqual(self.whole["quality"]["patches"]["inverted"], 0, self.whole["repair"])
+        self.assertEqual(self.whole["repair"]["inverted_after"], 0, self.whole["repair"])
         # every patch node was put onto the part's B-rep but a few
         self.assertGreaterEqual(self.whole["mesh"]["moved_onto_brep"], 0.99 * self.whole["mesh"]["patch_nodes"])
 

@@ -41,8 +41,11 @@ std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches);
 /// the nodes of its rigid sets. plain: gmsh meshes the whole part, the patches only say where the
 /// instances are (the support is chosen away from them, a rigid set becomes the nodes of the face its
 /// patch set lies on): the mesh without feature rules that the analysis is compared with.
+/// face_centroids (FaceN - 1 -> centroid of its triangles): the mesher checks that its faces are the
+/// core's, face by face.
 std::string part_mesh_job(const std::string& part_path, int part_faces, double size, const std::vector<PartPatch>& patches,
-                          bool plain = false, double tolerance_factor = 1.5);
+                          bool plain = false, double tolerance_factor = 1.5,
+                          const std::vector<Eigen::Vector3d>& face_centroids = {});
 
 struct PartMeshReport {
   std::size_t patches = 0, patch_nodes = 0, patch_elements = 0, rest_nodes = 0, rest_elements = 0;
@@ -64,6 +67,18 @@ struct PartMeshReport {
 /// plain mesh, the rigid sets on their faces). Patches of a plain mesh: pass none. Throws
 /// InputError("fe_gmsh_rest: ...") for an answer that does not fit the patches.
 FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::string& rest_json, PartMeshReport* report = nullptr);
+
+/// Quality repair of the placed patches (issue 12, item 2): nodes of patch elements whose scaled
+/// Jacobian (against the mean normal of its neighbours) is below min_scaled_jacobian, other than `locked`
+/// ones (border and joined nodes), move to the mean of their neighbours and back onto `surface`
+/// (the part's triangulation), a move kept only if it betters the worst of the node's elements; up
+/// to `passes` rounds. The patch elements are the first patch_elements of m.
+struct RepairReport {
+  std::size_t inverted_before = 0, inverted_after = 0, poor_before = 0, poor_after = 0, moved_nodes = 0;
+  int passes = 0;
+};
+RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const TriangleMesh& surface, const std::vector<int>& locked,
+                            double min_scaled_jacobian = 0.2, int passes = 20);
 
 /// Free edges (edges of exactly one shell element) and pairs of distinct nodes closer than tolerance.
 void conformity(const FeMesh& m, double tolerance, std::size_t* free_edges, std::size_t* duplicate_nodes,
