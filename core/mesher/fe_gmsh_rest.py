@@ -112,6 +112,29 @@ def main():
             if dist(g, c) > 0.01 * diag:
                 fail(2, f"{part}: gmsh's face {f} is not the core's (centroids {dist(g, c):.3g} apart): face numbers do not agree")
         missing = max(0, int(job.get("faces") or 0) - len(surfaces))
+        # every patch node onto the nearest of its instance's faces (exact B-rep projection)
+        moved = {}     # patch key -> exact position
+        not_on_a_face = 0
+        for i, p in enumerate(patches):
+            tol = float(p["tolerance"])
+            boxes = {s: gmsh.model.getBoundingBox(2, s) for s in p["faces"] if s in surfaces}
+            for n in p["nodes"]:
+                key, q = int(n[0]), (float(n[1]), float(n[2]), float(n[3]))
+                best = None
+                for s, b in boxes.items():
+                    if bbox_distance(b, q) > tol:
+                        continue
+                    try:
+                        cp, _ = gmsh.model.getClosestPoint(2, s, list(q))
+                    except Exception:
+                        continue
+                    d = dist(cp, q)
+                    if best is None or d < best[0]:
+                        best = (d, cp, s)
+                if best is not None and best[0] <= tol:
+                    moved[key] = tuple(best[1])
+                else:
+                    not_on_a_face += 1
         owner = {s: -1 for s in surfaces}  # -1: the rest; i: patch i
         for i, p in enumerate(patches):
             for f in p["faces"]:
@@ -151,13 +174,12 @@ def main():
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
         gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
         gmsh.option.setNumber("Mesh.MeshOnlyEmpty", 1)
-        moved = {}     # patch key -> exact position
         joined = {}    # gmsh node tag -> patch key
         report = {"border_curves": len(border), "border_vertices": len(border_vertices),
                   "faces_gmsh_does_not_read": missing,
                   "curves_without_patch_nodes": [], "vertices_without_patch_node": [],
-                  "border_nodes_not_on_an_edge": 0, "border_nodes_on_top_of_another": 0,
-                  "patch_nodes_not_on_a_face": 0}
+                  "border_nodes_not_on_an_edge": 0, "border_nodes_on_top_of_another": 0, "short_curves_one_segment": 0,
+                  "patch_nodes_not_on_a_face": not_on_a_face}
         plans = []
         tol_of = {}
         for i, p in enumerate(patches):
@@ -166,24 +188,6 @@ def main():
             # root line on the fillet): it is still the patch's border, and goes onto the nearest border edge
             btol = float(p.get("border_tolerance", 2 * tol))
             xyz = {int(n[0]): (float(n[1]), float(n[2]), float(n[3])) for n in p["nodes"]}
-            # every node onto the nearest covered face (exact B-rep projection)
-            boxes = {s: gmsh.model.getBoundingBox(2, s) for s in p["faces"]}
-            for key, q in xyz.items():
-                best = None
-                for s, b in boxes.items():
-                    if bbox_distance(b, q) > tol:
-                        continue
-                    try:
-                        cp, _ = gmsh.model.getClosestPoint(2, s, list(q))
-                    except Exception:
-                        continue
-                    d = dist(cp, q)
-                    if best is None or d < best[0]:
-                        best = (d, cp)
-                if best is not None and best[0] <= tol:
-                    moved[key] = tuple(best[1])
-                else:
-                    report["patch_nodes_not_on_a_face"] += 1
             # border nodes onto the border vertices and curves of this patch
             mine = [c for c, o in border.items() if o == i]
             on_curve = {c: [] for c in mine}
@@ -242,16 +246,34 @@ def main():
         for b in etags:
             if len(b):
                 elem_tag = max(elem_tag, int(max(b)))
+        nonlocal_tag = [elem_tag]
         for mine, on_curve, vertex_key in plans:
             for v, key in vertex_key.items():
                 tags, _, _ = gmsh.model.mesh.getNodes(0, v)
                 if len(tags):
                     joined[int(tags[0])] = key
             used_by_vertex = set(vertex_key.values())
+            def one_segment(c):
+                """A border edge shorter than the patch's elements (a short arc end) has no patch node
+                between its vertices: if both vertices are the patch's, one segment joins them, as the
+                patch does; else gmsh's own mesh stays and the curve is reported."""
+                ends = curve_ends[c]
+                if len(ends) != 2 or ends[0] == ends[1] or not all(v in vertex_key for v in ends):
+                    report["curves_without_patch_nodes"].append(c)
+                    return
+                nonlocal_tag[0] += 1
+                v0 = int(gmsh.model.mesh.getNodes(0, ends[0])[0][0])
+                v1 = int(gmsh.model.mesh.getNodes(0, ends[1])[0][0])
+                gmsh.model.mesh.clear([(1, c)])
+                gmsh.model.mesh.addElements(1, c, [1], [[nonlocal_tag[0]]], [[v0, v1]])
+                report["short_curves_one_segment"] += 1
+
             for c in mine:
+                nonlocal_tag[0] = max(nonlocal_tag[0], elem_tag)
                 pts = sorted((u, key, cp) for u, key, cp in on_curve[c] if key not in used_by_vertex)
                 if not pts:
-                    report["curves_without_patch_nodes"].append(c)
+                    one_segment(c)
+                    elem_tag = nonlocal_tag[0]
                     continue
                 # one node per key, in order along the curve, none on top of a vertex or of the node
                 # before it (gmsh stops on a zero-length segment)
@@ -267,7 +289,8 @@ def main():
                     seen.add(key)
                     uniq.append((u, key, cp))
                 if not uniq:
-                    report["curves_without_patch_nodes"].append(c)
+                    one_segment(c)
+                    elem_tag = nonlocal_tag[0]
                     continue
                 # the line elements run from the vertex at the curve's first parameter to the one at its
                 # last (a closed curve, a circle, has one vertex at both ends)
