@@ -194,6 +194,42 @@ class App_(unittest.TestCase):
         api.place_meshes(self.doc.getObject("Bosses"), os.path.join(features, "boss"), seed=1)
         self.assertEqual(len([o for o in self.doc.Objects if o.TypeId == "Fem::FemMeshObjectPython"]), 5)
 
+    def test_part_meshed_whole_and_solved_by_freecads_calculix(self):
+        """Issue 12: the whole plate meshed with the rib and boss rules (mesh-part in a child process), a
+        CalculiX analysis set up in the document, solved by FreeCAD's own ccx tools; a failure changes
+        nothing."""
+        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+        before = sorted(o.Name for o in self.doc.Objects)
+        with self.assertRaises(api.FeatureExtractError) as err:
+            api.mesh_part(self.part, [os.path.join(features, "no_such_feature")])
+        self.assertIn("no_such_feature", str(err.exception))
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), before)
+        seen = []
+        mesh, analysis = api.mesh_part(self.part, [os.path.join(features, f) for f in ("rib", "boss")],
+                                       progress=lambda stage, f: seen.append(stage))
+        self.assertIn("meshing the rest (gmsh)", seen)
+        self.assertEqual(mesh.TypeId, "Fem::FemMeshObject")
+        self.assertGreater(mesh.FemMesh.VolumeCount, 50000)
+        names = sorted(o.Name for o in analysis.Group)
+        self.assertIn("Support", names)
+        self.assertEqual([n for n in names if n.startswith("Bolt_")], ["Bolt_SCREW_BOSS_1", "Bolt_SCREW_BOSS_2"])
+        self.assertEqual(len(self.part.Shape.Faces), 139)
+        from femtools import ccxtools
+        solver = [o for o in analysis.Group if o.Name.startswith("CalculiX")][0]
+        fea = ccxtools.FemToolsCcx(analysis, solver)
+        fea.update_objects()
+        fea.setup_working_dir()
+        fea.setup_ccx()
+        self.assertEqual(fea.check_prerequisites(), "")
+        fea.write_inp_file()
+        fea.ccx_run()
+        fea.load_results()
+        results = [o for o in self.doc.Objects if o.isDerivedFrom("Fem::FemResultObject")]
+        self.assertEqual(len(results), 1)
+        umax = max(results[0].DisplacementLengths)
+        self.assertGreater(umax, 0)
+        self.assertLess(umax, 1e-3)  # 200 N on a steel plate held on its underside: far below a micron
+
     def test_bad_input_leaves_the_document_unchanged(self):
         before = sorted(o.Name for o in self.doc.Objects)
         with self.assertRaises(api.FeatureExtractError):

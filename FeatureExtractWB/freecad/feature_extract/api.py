@@ -371,6 +371,8 @@ def _fem_mesh(fe_mesh):
             corners = [int(ids[k]) for k in row]
             if kind in ("S3", "S4"):
                 m.addFace(corners, n)
+            elif kind == "C3D4":  # SMESH turns a tetrahedron the other way round (FreeCAD writes 0 2 1 3 back)
+                m.addVolume([corners[0], corners[2], corners[1], corners[3]], n)
             else:
                 m.addVolume(corners, n)
             original_ids.append(int(eid))
@@ -439,3 +441,157 @@ def meshes_for(target_obj):
     group = target_obj.Document.getObject(RESULT_GROUP)
     return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
             and getattr(o, "Proxy", None).__class__.__name__ == "FeatureMesh"]
+
+
+# ---------------------------------------------------------------------------------------------
+# One mesh of the whole part, ready for CalculiX (issue 12)
+
+def _cli():
+    """The featureextract program: $FEATUREEXTRACT_CLI, else beside the Python module's build tree
+    (build/python/featureextract -> build/featureextract), else on PATH."""
+    import os
+    import shutil
+    env = os.environ.get("FEATUREEXTRACT_CLI")
+    if env and os.path.isfile(env):
+        return env
+    here = os.path.dirname(os.path.abspath(fx.__file__))
+    for cand in (os.path.join(here, "..", "..", "featureextract"), os.path.join(here, "..", "..", "..", "bin", "featureextract")):
+        if os.path.isfile(cand):
+            return os.path.normpath(cand)
+    found = shutil.which("featureextract")
+    if found:
+        return found
+    raise FeatureExtractError("the featureextract program is not found (set FEATUREEXTRACT_CLI)")
+
+
+def _bolt_faces(shape, nodes, face_numbers, tol):
+    """The faces (FaceN) among face_numbers on which most of the given node positions lie."""
+    import Part
+    votes = {}
+    for x, y, z in nodes:
+        v = Part.Vertex(App.Vector(x, y, z))
+        for n in face_numbers:
+            if v.distToShape(shape.Faces[n - 1])[0] <= tol:
+                votes[n] = votes.get(n, 0) + 1
+    return sorted(n for n, c in votes.items() if c >= 0.2 * len(nodes))
+
+
+_part_meshes = {}  # (shape, folders, options) -> output folder of a finished mesh-part run
+
+
+def _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed):
+    return (target_obj.Document.Name, target_obj.Name, shape.hashCode(), tuple(feature_dirs),
+            bool(solid), size, float(force), int(seed))
+
+
+def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1, shape=None):
+    """Runs `featureextract mesh-part` on the part (a child process: no fault in meshing can take
+    FreeCAD down) and returns its output folder; the document is not touched, so this may run in the
+    background (pass shape=target_shape(target_obj), taken on the GUI thread). progress(stage,
+    fraction) returning False cancels (fx.Cancelled)."""
+    import os
+    import re
+    import subprocess
+    import tempfile
+    if isinstance(feature_dirs, str):
+        feature_dirs = [feature_dirs]
+    if not feature_dirs:
+        raise FeatureExtractError("no feature folder given")
+    shape = shape if shape is not None else target_shape(target_obj)
+    key = _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed)
+    if key in _part_meshes and os.path.isfile(os.path.join(_part_meshes[key], "mesh_part.json")):
+        return _part_meshes[key]
+    work = tempfile.mkdtemp(prefix="fe_mesh_part_")
+    brep = os.path.join(work, "part.brep")
+    shape.exportBrep(brep)
+    out = os.path.join(work, "out")
+    cmd = [_cli(), "mesh-part", "--target", brep, "--output", out, "--seed", str(int(seed))]
+    for d in feature_dirs:
+        cmd += ["--feature", d]
+    if solid:
+        cmd.append("--solid")
+    if size:
+        cmd += ["--size", repr(float(size))]
+    cmd += ["--force", repr(float(force))]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    last = ""
+    for line in proc.stderr:
+        line = line.rstrip("\n")
+        m = re.match(r"featureextract: (.*) (\d+)%$", line)
+        if m:
+            if progress is not None and progress(m.group(1), int(m.group(2)) / 100.0) is False:
+                proc.kill()
+                proc.wait()
+                raise fx.Cancelled("cancelled")
+        elif line:
+            last = line
+    if proc.wait() != 0:
+        raise FeatureExtractError(last.replace("featureextract: ", "", 1) or f"mesh-part failed (exit {proc.returncode})")
+    _part_meshes[key] = out
+    return out
+
+
+def mesh_part(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1):
+    """One FE mesh of the whole part (`featureextract mesh-part`, see compute_part_mesh): every instance
+    of every feature folder carries the feature's mesh, gmsh meshes the rest, conforming; with
+    solid=True the surface is filled with tetrahedra. Adds a Fem::FemMeshObject of it and a CalculiX
+    analysis ready to solve in the FEM workbench: steel, the part held on the face mesh-part chose
+    (the largest one away from the features), a force of `force` N on the faces of each feature's
+    rigid bolt set, a CalculiX solver. Returns (mesh object, analysis). On any error the document is
+    left as it was."""
+    import json
+    import os
+    if isinstance(feature_dirs, str):
+        feature_dirs = [feature_dirs]
+    shape = target_shape(target_obj)
+    out = compute_part_mesh(target_obj, feature_dirs, solid, size, force, progress, seed, shape)
+    with open(os.path.join(out, "mesh_part.json")) as f:
+        report = json.load(f)
+    mesh_file = os.path.join(out, "part_solid.inp" if solid else "part.inp")
+    fem = fx.read_fe_mesh(mesh_file)
+    surface = fx.read_fe_mesh(os.path.join(out, "part.inp")) if solid else fem
+    doc = target_obj.Document
+    import ObjectsFem
+    with _changes(doc, "Mesh part with feature rules") as created:
+        obj = doc.addObject("Fem::FemMeshObject", "PartMesh")
+        created.append(obj)
+        obj.Label = f"Part mesh ({len(report['instances'])} feature instances)"
+        femmesh, _ = _fem_mesh(fem)
+        obj.FemMesh = femmesh
+        analysis = ObjectsFem.makeAnalysis(doc, "FeatureAnalysis")
+        created.append(analysis)
+        analysis.addObject(obj)
+        solver = ObjectsFem.makeSolverCalculixCcxTools(doc, "CalculiX")
+        created.append(solver)
+        solver.AnalysisType = "static"
+        analysis.addObject(solver)
+        material = ObjectsFem.makeMaterialSolid(doc, "Steel")
+        created.append(material)
+        mat = material.Material
+        mat.update({"Name": "Steel", "YoungsModulus": "210000 MPa", "PoissonRatio": "0.3", "Density": "7850 kg/m^3"})
+        material.Material = mat
+        analysis.addObject(material)
+        if not solid:
+            thick = ObjectsFem.makeElementGeometry2D(doc, 0.2, "Thickness")
+            created.append(thick)
+            analysis.addObject(thick)
+        fixed = ObjectsFem.makeConstraintFixed(doc, "Support")
+        created.append(fixed)
+        fixed.References = [(target_obj, f"Face{report['analysis']['fixed_face']}")]
+        analysis.addObject(fixed)
+        forces = []
+        for inst in report["instances"]:
+            for rs in inst.get("rigid_sets", []):
+                rows = surface.node_sets.get(rs, [])
+                pts = [tuple(surface.nodes[i]) for i in rows]
+                faces = _bolt_faces(shape, pts, inst["faces"], 1e-3 * max(1.0, shape.BoundBox.DiagonalLength))
+                if not faces:
+                    continue
+                c = ObjectsFem.makeConstraintForce(doc, f"Bolt_{inst['name']}")
+                created.append(c)
+                c.References = [(target_obj, f"Face{n}") for n in faces]
+                c.Force = float(force)
+                analysis.addObject(c)
+                forces.append(c)
+        doc.recompute()
+    return obj, analysis

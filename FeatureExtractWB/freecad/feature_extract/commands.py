@@ -226,6 +226,77 @@ class PlaceMesh:
             lambda progress: api.run(job, progress), done)
 
 
+class MeshPart:
+    """One FE mesh of the whole selected solid with the rules of one or more feature folders (issue 12):
+    `featureextract mesh-part` runs in the background (progress dialog with Cancel), then a recorded
+    `api.mesh_part(...)` adds the mesh and a CalculiX analysis that the FEM workbench solves."""
+
+    running = None
+
+    def GetResources(self):
+        return {"Pixmap": icon("PlaceMesh"), "MenuText": translate("FeatureExtract", "Mesh part with feature rules"),
+                "ToolTip": translate("FeatureExtract", "Mesh the whole selected solid: every instance of the chosen reference "
+                                                       "features gets its feature's FE mesh, gmsh meshes the rest (conforming, "
+                                                       "tetrahedra inside), and a CalculiX analysis is set up (support, bolt "
+                                                       "loads, steel)")}
+
+    def IsActive(self):
+        from . import background
+        return App.ActiveDocument is not None and background.running is None
+
+    @staticmethod
+    def feature_folders(folder):
+        """The folder itself if it is a feature folder, else its feature subfolders (a library)."""
+        if os.path.isfile(os.path.join(folder, "feature.json")):
+            return [folder]
+        return sorted(os.path.join(folder, d) for d in os.listdir(folder)
+                      if os.path.isfile(os.path.join(folder, d, "feature.json")))
+
+    def Activated(self, folder=None):
+        from PySide import QtGui
+        from . import REPO, api
+        target = _selected_solid()
+        if target is None:
+            report_error(translate("FeatureExtract", "Select the solid to mesh first."))
+            return
+        if folder is None:
+            folder = QtGui.QFileDialog.getExistingDirectory(
+                Gui.getMainWindow(), translate("FeatureExtract", "A feature folder, or a folder of feature folders"),
+                os.path.join(REPO, "Resources", "features"))
+            if not folder:
+                return
+        dirs = self.feature_folders(folder) if os.path.isdir(folder) else []
+        if not dirs:
+            report_error(translate("FeatureExtract", "{folder}: no feature.json there, nor in its subfolders.").format(folder=folder))
+            return
+        try:
+            shape = api.target_shape(target)
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+            return
+        from . import background
+
+        def done(kind, value):
+            MeshPart.running = None
+            if kind == "ok":
+                _do(f"freecad.feature_extract.api.mesh_part(App.getDocument('{target.Document.Name}')"
+                    f".getObject('{target.Name}'), {dirs!r})")
+                meshes = [o for o in target.Document.Objects if o.Name.startswith("PartMesh")]
+                if meshes:
+                    m = meshes[-1].FemMesh
+                    App.Console.PrintMessage(f"FeatureExtract: {target.Label} meshed whole: {m.NodeCount} nodes, "
+                                             f"{m.VolumeCount or m.FaceCount} elements; solve it in the FEM workbench\n")
+            elif kind == "error":
+                report_error(value)
+            else:
+                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
+
+        MeshPart.running = background.start(
+            translate("FeatureExtract", "Mesh part with feature rules"),
+            translate("FeatureExtract", "Meshing {name} with {n} feature(s)...").format(name=target.Label, n=len(dirs)),
+            lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), done)
+
+
 class ClearColors:
     def GetResources(self):
         return {"Pixmap": icon("ClearColors"), "MenuText": translate("FeatureExtract", "Clear result colors"),
@@ -247,5 +318,5 @@ class ClearColors:
 
 
 COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
-            "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_ClearColors": ClearColors}
+            "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_MeshPart": MeshPart, "FE_ClearColors": ClearColors}
 
