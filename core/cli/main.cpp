@@ -241,6 +241,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
         try {
           fe::TransferredMesh t = fe::transfer_mesh(feature.mesh, m.transform, tgt, topt, feature.spec_json);
           p.mesh = std::move(t.mesh);
+          p.spec_json = t.spec_json;
         } catch (const std::exception& e) {
           fj["skipped"].push_back(p.name + ": " + e.what());
           continue;
@@ -299,13 +300,27 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   // quality repair of the patches: their border and joined nodes stay
   if (!a.plain) {
     std::vector<int> locked;
+    std::vector<fe::NodeAxis> circles;
     long base = 0;
     for (const auto& p : patches) {
       for (const int b : fe::border_nodes(p.mesh)) locked.push_back(static_cast<int>(base + b));
+      const nlohmann::json spec = nlohmann::json::parse(p.spec_json, nullptr, false);
+      bool on_circles = false;
+      if (spec.is_object() && spec.contains("rules") && spec["rules"].is_array())
+        for (const auto& r : spec["rules"]) on_circles = on_circles || (r.is_object() && r.value("rule", "") == "nodes_on_circles");
+      if (on_circles && spec.contains("axis") && spec["axis"].is_object()) {
+        fe::NodeAxis ax;
+        for (int k = 0; k < 3; ++k) {
+          ax.point(k) = spec["axis"]["point"][static_cast<std::size_t>(k)].get<double>();
+          ax.direction(k) = spec["axis"]["direction"][static_cast<std::size_t>(k)].get<double>();
+        }
+        for (Eigen::Index i = 0; i < p.mesh.nodes.rows(); ++i) ax.nodes.push_back(static_cast<int>(base + i));
+        circles.push_back(std::move(ax));
+      }
       base += p.mesh.nodes.rows();
     }
     progress("repairing the patches", 0.0);
-    const fe::RepairReport rr = fe::repair_patches(whole, rep.patch_elements, part_surface, locked);
+    const fe::RepairReport rr = fe::repair_patches(whole, rep.patch_elements, part_surface, locked, 0.2, 20, circles);
     progress("repairing the patches", 1.0);
     report["repair"] = {{"inverted_before", rr.inverted_before}, {"inverted_after", rr.inverted_after},
                         {"poor_before", rr.poor_before}, {"poor_after", rr.poor_after},
@@ -370,12 +385,25 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     return 4;
   }
   report["instances"] = nlohmann::ordered_json::array();
+  long row0 = 0;
+  int el0 = 0;  // blocks before this patch's
   for (const auto& p : patches) {
+    // the rules, checked on the patch as it ends up in the whole mesh (on the B-rep, repaired)
+    fe::FeMesh placed = p.mesh;
+    if (!a.plain) {
+      placed.nodes = whole.nodes.middleRows(row0, p.mesh.nodes.rows());
+      for (std::size_t b = 0; b < placed.blocks.size(); ++b)  // the whole mesh's blocks start with the patches', in order
+        placed.blocks[b].conn = whole.blocks[b + static_cast<std::size_t>(el0)].conn.array() - static_cast<int>(row0);
+    }
+    row0 += p.mesh.nodes.rows();
+    el0 += static_cast<int>(p.mesh.blocks.size());
+    const nlohmann::ordered_json rules = nlohmann::ordered_json::parse(fe::check_rules(placed, p.spec_json));
     const Eigen::Vector3d lo = p.mesh.nodes.colwise().minCoeff().transpose(), hi = p.mesh.nodes.colwise().maxCoeff().transpose();
     report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
                                    {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},
                                    {"bbox_min", {lo.x(), lo.y(), lo.z()}}, {"bbox_max", {hi.x(), hi.y(), hi.z()}},
-                                   {"rigid_sets", p.rigid_sets}, {"quality", quality(fe::summarize(fe::element_quality(p.mesh)))}});
+                                   {"rigid_sets", p.rigid_sets}, {"quality", quality(fe::summarize(fe::element_quality(placed)))},
+                                   {"rules", rules}});
   }
   report["mesh"] = {{"inp", "part.inp"}, {"msh", "part.msh"}, {"nodes", whole.nodes.rows()}, {"elements", whole.num_elements()},
                     {"patch_nodes", rep.patch_nodes}, {"patch_elements", rep.patch_elements},
@@ -554,8 +582,10 @@ int main(int argc, char** argv) {
     say(e.what());
     return 3;
   } catch (const fe::TimeLimitExceeded& e) {
-    std::ostringstream m;
-    m << tgt_path << ": stopped after the time limit of " << time_limit << " s (--time-limit)";
+    std::ostringstream m;  // the file being read when the time ran out (the reference's), else the target
+    const std::string what = e.what();
+    m << (!ref_path.empty() && what.rfind(ref_path + ":", 0) == 0 ? ref_path : tgt_path) << ": stopped after the time limit of "
+      << time_limit << " s (--time-limit)";
     say(m.str());
     return 5;
   } catch (const std::exception& e) {

@@ -140,7 +140,7 @@ namespace {
 // Runs `tessellated()` in the reader child (isolate.h), with OpenCASCADE's exceptions turned into
 // InputError naming `name`.
 template <class F>
-TriangleMesh read_guarded(const std::string& name, double limit, F tessellated) {
+TriangleMesh read_guarded(const std::string& name, double limit, bool callers_limit, F tessellated) {
   return read_isolated(name, [&] {
     silence_occt();
     try {
@@ -152,7 +152,7 @@ TriangleMesh read_guarded(const std::string& name, double limit, F tessellated) 
     } catch (const std::exception& e) {
       fail(name, e.what());
     }
-  }, limit);
+  }, limit, callers_limit);
 }
 
 }  // namespace
@@ -160,12 +160,12 @@ TriangleMesh read_guarded(const std::string& name, double limit, F tessellated) 
 TriangleMesh read_brep_file(const std::string& path, const std::string& ext, const TessellationOptions& o) {
   std::error_code ec;
   const double limit = time_limit(path, o, static_cast<double>(std::filesystem::file_size(path, ec)));
-  return read_guarded(path, limit, [&] { return tessellate(read_occt(path, ext), o, path); });
+  return read_guarded(path, limit, o.time_limit > 0, [&] { return tessellate(read_occt(path, ext), o, path); });
 }
 
 TriangleMesh read_brep_string(const std::string& brep, const TessellationOptions& o, const std::string& name) {
   const double limit = time_limit(name, o, static_cast<double>(brep.size()));
-  TriangleMesh m = read_guarded(name, limit, [&] {
+  TriangleMesh m = read_guarded(name, limit, o.time_limit > 0, [&] {
     std::istringstream in(brep);
     TopoDS_Shape shape;
     BRep_Builder b;

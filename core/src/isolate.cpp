@@ -77,7 +77,8 @@ struct Reader {
 
 }  // namespace
 
-TriangleMesh read_isolated(const std::string& name, const std::function<TriangleMesh()>& read, double time_limit) {
+TriangleMesh read_isolated(const std::string& name, const std::function<TriangleMesh()>& read, double time_limit,
+                           bool callers_limit) {
   int fds[2];
   if (::pipe(fds) != 0) throw InputError(name + ": cannot start the reader process: " + std::strerror(errno));
   const pid_t pid = ::fork();
@@ -132,6 +133,8 @@ TriangleMesh read_isolated(const std::string& name, const std::function<Triangle
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
+  if (timed_out && callers_limit)  // the caller's time limit, not a sign of a bad file
+    throw TimeLimitExceeded(name + ": reading stopped by the time limit");
   if (timed_out)
     throw InputError(name + ": reading took longer than " + std::to_string(static_cast<long long>(time_limit)) +
                      " s and was stopped (a corrupt file, or raise the time limit)");

@@ -14,6 +14,7 @@ namespace fe {
 
 /// Runs `read` in a child process and returns its mesh. `time_limit` (seconds, > 0) bounds the child;
 /// 0 means no limit. Throws InputError("name: ...") when the child fails, crashes or is stopped.
-TriangleMesh read_isolated(const std::string& name, const std::function<TriangleMesh()>& read, double time_limit);
+TriangleMesh read_isolated(const std::string& name, const std::function<TriangleMesh()>& read, double time_limit,
+                           bool callers_limit = false);
 
 }  // namespace fe

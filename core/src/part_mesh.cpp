@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -446,7 +448,7 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
 }
 
 RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const TriangleMesh& surface, const std::vector<int>& locked,
-                            double min_scaled_jacobian, int passes) {
+                            double min_scaled_jacobian, int passes, const std::vector<NodeAxis>& on_circles) {
   RepairReport rep;
   if (surface.triangles.rows() == 0 || patch_elements == 0) return rep;
   // the surface: triangle centroids in a kd-tree
@@ -507,6 +509,9 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
       nbr[static_cast<std::size_t>(row(k))].push_back(row((k + n - 1) % n));
     }
   }
+  std::map<int, int> axis_of;  // node -> its axis (rule nodes_on_circles)
+  for (std::size_t a = 0; a < on_circles.size(); ++a)
+    for (const int v : on_circles[a].nodes) axis_of[v] = static_cast<int>(a);
   std::vector<char> is_locked(static_cast<std::size_t>(m.nodes.rows()), 0);
   for (const int v : locked)
     if (v >= 0 && v < m.nodes.rows()) is_locked[static_cast<std::size_t>(v)] = 1;
@@ -563,7 +568,17 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
       avg /= static_cast<double>(nb.size());
       const Eigen::Vector3d old = m.nodes.row(v).transpose();
       const double before = local_worst(v);
-      m.nodes.row(v) = foot(avg).transpose();
+      Eigen::Vector3d moved_to = foot(avg);
+      if (const auto it = axis_of.find(v); it != axis_of.end()) {
+        // a node on a circle about the feature's axis keeps its angle: turned back about the axis (a
+        // surface of revolution about it keeps the point on itself)
+        const NodeAxis& ax = on_circles[static_cast<std::size_t>(it->second)];
+        const Eigen::Vector3d d = ax.direction.normalized();
+        const Eigen::Vector3d r0 = (old - ax.point) - (old - ax.point).dot(d) * d, r1 = (moved_to - ax.point) - (moved_to - ax.point).dot(d) * d;
+        if (r0.norm() > 0 && r1.norm() > 0)
+          moved_to = ax.point + (moved_to - ax.point).dot(d) * d + r1.norm() * r0.normalized();
+      }
+      m.nodes.row(v) = moved_to.transpose();
       const double after = local_worst(v);
       if (after > before) {
         moved.insert(v);
@@ -578,6 +593,76 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
   rep.moved_nodes = moved.size();
   rep.poor_after = count_bad(q, &rep.inverted_after);
   return rep;
+}
+
+std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
+  const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
+  nlohmann::json out = nlohmann::json::array();
+  if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return out.dump();
+  // the instance's scale and the reference +x direction, from the transform the transfer added
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
+  if (spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) A(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+  const double scale = std::cbrt(std::abs(A.determinant()));
+  const double size = spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
+                              spec["element"]["size"].is_number() ? spec["element"]["size"].get<double>() : 0.0;
+  std::vector<double> len;
+  for (const auto& [edge, uses] : shell_edges(patch)) len.push_back((patch.nodes.row(edge.first) - patch.nodes.row(edge.second)).norm());
+  std::sort(len.begin(), len.end());
+  for (const auto& rule : spec["rules"]) {
+    if (!rule.is_object() || !rule.contains("rule") || !rule["rule"].is_string()) continue;
+    const std::string name = rule["rule"].get<std::string>();
+    nlohmann::json r = {{"rule", name}};
+    if (name == "nodes_on_circles" && spec.contains("axis") && spec["axis"].is_object()) {
+      const auto& ax = spec["axis"];
+      const Eigen::Vector3d c(ax["point"][0].get<double>(), ax["point"][1].get<double>(), ax["point"][2].get<double>());
+      Eigen::Vector3d d(ax["direction"][0].get<double>(), ax["direction"][1].get<double>(), ax["direction"][2].get<double>());
+      d.normalize();
+      // angle 0: the reference's +x, mapped, across the axis (a mirror image turns the other way)
+      Eigen::Vector3d e1 = A.col(0) - A.col(0).dot(d) * d;
+      e1.normalize();
+      Eigen::Vector3d e2 = d.cross(e1);
+      if (A.determinant() < 0) e2 = -e2;
+      const double step = rule.value("angle_step_deg", 30.0), start = rule.value("start_angle_deg", 0.0);
+      double worst = 0;
+      std::size_t off = 0, nodes = 0;
+      for (Eigen::Index i = 0; i < patch.nodes.rows(); ++i) {
+        const Eigen::Vector3d q = patch.nodes.row(i).transpose() - c;
+        const double x = q.dot(e1), y = q.dot(e2);
+        if (std::hypot(x, y) < 0.05 * std::max(size * scale, 1e-9)) continue;  // on the axis
+        ++nodes;
+        double a = std::atan2(y, x) * 180.0 / M_PI - start;
+        a = std::fmod(std::fmod(a, step) + step, step);
+        const double dev = std::min(a, step - a);
+        worst = std::max(worst, dev);
+        off += dev > 1.0;
+      }
+      r["nodes"] = nodes;
+      r["max_angle_error_deg"] = worst;
+      r["nodes_off_by_more_than_1_deg"] = off;
+      r["ok"] = off == 0;
+    } else if (name == "element_size" && size > 0 && !len.empty()) {
+      const double median = len[len.size() / 2];
+      r["size"] = size * scale;
+      r["median_edge"] = median;
+      r["ratio"] = median / (size * scale);
+      r["ok"] = r["ratio"].get<double>() > 0.7 && r["ratio"].get<double>() < 1.3;
+    } else if (name == "quad_dominant") {
+      std::size_t quads = 0, all = 0;
+      for (const ElementBlock& b : patch.blocks) {
+        all += static_cast<std::size_t>(b.conn.rows());
+        if (b.type == ElementType::Quad4) quads += static_cast<std::size_t>(b.conn.rows());
+      }
+      r["quad_fraction"] = all ? static_cast<double>(quads) / static_cast<double>(all) : 0.0;
+      r["ok"] = r["quad_fraction"].get<double>() >= 0.5;
+    } else {
+      r["ok"] = nullptr;  // not checked
+      r["why"] = "no check for this rule";
+    }
+    out.push_back(r);
+  }
+  return out.dump();
 }
 
 void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path) {

@@ -141,6 +141,16 @@ class Cli(unittest.TestCase):
         self.assertIn(TGT, r.stderr)
         self.assertFalse(os.path.exists(self.out))
 
+    def test_time_limit_hit_while_reading_is_exit_5_not_a_bad_file(self):
+        # the CAD reader's child is stopped by the caller's limit: that is the time limit (5), not a
+        # corrupt file (3); on a loaded machine the 0.3 s run above can run out of time while reading
+        r = run("extract", "-q", "-r", REF, "-t", TGT, "-o", self.out, "--time-limit", "0.001")
+        self.assertEqual(r.returncode, 5, r.stderr)
+        self.assertIn("--time-limit", r.stderr)
+        self.assertIn(REF, r.stderr)
+        self.assertNotIn("corrupt", r.stderr)
+        self.assertFalse(os.path.exists(self.out))
+
     def test_extract_writes_the_json_contract(self):
         r = run("extract", "--reference", REF, "--target", TGT, "--output", self.out, "--seed", "3")
         self.assertEqual(r.returncode, 0, r.stderr)

@@ -17,7 +17,8 @@ struct TessellationOptions {
   double angular_deflection = 0.25;
   /// STEP, IGES and BREP are read and tessellated in a child process, which is stopped after this
   /// many seconds: a corrupt file can neither crash the caller nor hang it. < 0 (default): 20 s plus
-  /// 10 s per MB of input, several times what a sound file takes; 0: no limit.
+  /// 10 s per MB of input, several times what a sound file takes (exceeded: InputError, a bad file);
+  /// > 0: the caller's own limit (exceeded: TimeLimitExceeded); 0: no limit.
   double time_limit = -1.0;
 };
 

@@ -22,6 +22,7 @@ struct PartPatch {
   std::string feature;     ///< feature name, as in feature.json
   /// node sets of the feature that carry a rigid bolt connection (feature.json "analysis")
   std::vector<std::string> rigid_sets;
+  std::string spec_json;   ///< the specification, mapped onto this instance (transfer_mesh's spec_json)
 };
 
 /// "screw boss" -> "SCREW_BOSS": upper case, anything but letters and digits becomes '_', runs of '_'
@@ -72,13 +73,26 @@ FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::stri
 /// Jacobian (against the mean normal of its neighbours) is below min_scaled_jacobian, other than `locked`
 /// ones (border and joined nodes), move to the mean of their neighbours and back onto `surface`
 /// (the part's triangulation), a move kept only if it betters the worst of the node's elements; up
-/// to `passes` rounds. The patch elements are the first patch_elements of m.
+/// to `passes` rounds. The patch elements are the first patch_elements of m. Nodes in on_circles keep
+/// their angle about their axis (the rule nodes_on_circles holds through the repair).
 struct RepairReport {
   std::size_t inverted_before = 0, inverted_after = 0, poor_before = 0, poor_after = 0, moved_nodes = 0;
   int passes = 0;
 };
+/// Nodes under a nodes_on_circles rule: a move keeps each one's angle about the axis.
+struct NodeAxis {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero(), direction = Eigen::Vector3d::UnitZ();
+  std::vector<int> nodes;
+};
 RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const TriangleMesh& surface, const std::vector<int>& locked,
-                            double min_scaled_jacobian = 0.2, int passes = 20);
+                            double min_scaled_jacobian = 0.2, int passes = 20, const std::vector<NodeAxis>& on_circles = {});
+
+/// The feature's meshing rules (feature.json "rules", with the axis and "transform" the transfer
+/// mapped) checked on a placed patch; a JSON array, one object per rule with "ok" (null: no check):
+/// nodes_on_circles (every node off the axis within 1 degree of start + k x step around the mapped
+/// axis), element_size (median edge within 0.7-1.3 of size x the instance's scale), quad_dominant
+/// (at least half the elements quads).
+std::string check_rules(const FeMesh& patch, const std::string& spec_json);
 
 /// Free edges (edges of exactly one shell element) and pairs of distinct nodes closer than tolerance.
 void conformity(const FeMesh& m, double tolerance, std::size_t* free_edges, std::size_t* duplicate_nodes,
