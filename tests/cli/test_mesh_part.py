@@ -46,6 +46,20 @@ class MeshPart(unittest.TestCase):
         self.assertEqual(self.whole["mesh"]["patch_elements"], 5 * 918 + 2 * 228)
         self.assertGreater(self.whole["mesh"]["rest_elements"], 1000)
 
+    def test_every_rule_of_the_specification_is_checked_on_the_placed_mesh(self):
+        for inst in self.whole["instances"]:
+            rules = {r["rule"]: r for r in inst["rules"]}
+            if inst["name"].startswith("RIB_"):
+                self.assertEqual(sorted(rules), ["element_size", "quad_dominant"])
+                self.assertTrue(all(r["ok"] for r in rules.values()), inst["rules"])
+                self.assertGreater(rules["element_size"]["ratio"], 0.7)
+            else:
+                self.assertEqual(sorted(rules), ["element_size", "nodes_on_circles", "quad_dominant"])
+                self.assertEqual(rules["nodes_on_circles"]["nodes"], 228)  # every node but the one on the axis
+                # the rule is measured: at most a few root nodes off, by a few degrees (see docs/benchmarks.md)
+                self.assertLess(rules["nodes_on_circles"]["max_angle_error_deg"], 5.0)
+                self.assertLessEqual(rules["nodes_on_circles"]["nodes_off_by_more_than_1_deg"], 12)
+
     def test_the_surface_mesh_is_one_conforming_closed_mesh(self):
         c = self.whole["conformity"]
         self.assertEqual(c["free_edges"], 0, c)  # a closed solid's surface: no free edge anywhere

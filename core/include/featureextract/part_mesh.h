@@ -90,7 +90,7 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
 /// The feature's meshing rules (feature.json "rules", with the axis and "transform" the transfer
 /// mapped) checked on a placed patch; a JSON array, one object per rule with "ok" (null: no check):
 /// nodes_on_circles (every node off the axis within 1 degree of start + k x step around the mapped
-/// axis), element_size (median edge within 0.7-1.3 of size x the instance's scale), quad_dominant
+/// axis, moved to pass through the patch's centroid), element_size (median edge within 0.7-1.3 of size x the instance's scale), quad_dominant
 /// (at least half the elements quads).
 std::string check_rules(const FeMesh& patch, const std::string& spec_json);
 
