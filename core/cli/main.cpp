@@ -145,7 +145,7 @@ int run_program(const std::vector<std::string>& args, const std::string& err_pat
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-std::string first_line_of(const std::string& path) {
+std::string last_line_of(const std::string& path) {
   std::ifstream in(path);
   std::string line, last;
   while (std::getline(in, line))
@@ -281,7 +281,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   progress("meshing the rest (gmsh)", 0.0);
   const int rc = run_program({"/usr/bin/python3", mesher, job_path, answer_path}, err_path);
   if (rc != 0) {
-    const std::string why = first_line_of(err_path);
+    const std::string why = last_line_of(err_path);
     say(a.target + ": the rest of the part could not be meshed: " + (why.empty() ? "the mesher stopped (status " + std::to_string(rc) + ")" : why));
     return rc == 1 || rc == -1 ? 1 : 3;
   }
@@ -339,7 +339,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     progress("filling the part with tetrahedra (gmsh)", 0.0);
     const int frc = run_program({"/usr/bin/python3", mesher, fjob, fans}, err_path);
     if (frc != 0) {
-      const std::string why = first_line_of(err_path);
+      const std::string why = last_line_of(err_path);
       say(a.target + ": the part could not be filled with tetrahedra: " + (why.empty() ? "the mesher stopped (status " + std::to_string(frc) + ")" : why));
       return frc == 2 ? 3 : 1;
     }
