@@ -115,8 +115,21 @@ def main():
         # every patch node onto the nearest of its instance's faces (exact B-rep projection)
         moved = {}     # patch key -> exact position
         not_on_a_face = 0
+        on_inner_edges = 0
         for i, p in enumerate(patches):
             tol = float(p["tolerance"])
+            snap = 0.1 * tol / 1.5  # a tenth of the patch's median edge
+            mine_faces = set(p["faces"])
+            face_curves = {s: [abs(c) for _, c in gmsh.model.getBoundary([(2, s)], combined=False, oriented=False)]
+                           for s in mine_faces if s in surfaces}
+            users = {}
+            for s, cs in face_curves.items():
+                for c in cs:
+                    users[c] = users.get(c, 0) + 1
+            curve_boxes = {c: gmsh.model.getBoundingBox(1, c) for c in users}
+
+            def inner_curves(s, face_curves=face_curves, users=users):
+                return [c for c in face_curves.get(s, []) if users[c] >= 2]
             boxes = {s: gmsh.model.getBoundingBox(2, s) for s in p["faces"] if s in surfaces}
             for n in p["nodes"]:
                 key, q = int(n[0]), (float(n[1]), float(n[2]), float(n[3]))
@@ -133,6 +146,20 @@ def main():
                         best = (d, cp, s)
                 if best is not None and best[0] <= tol:
                     moved[key] = tuple(best[1])
+                    # a node at an edge between two of the patch's faces goes onto that edge (the
+                    # feature mesh has nodes on its edges; a node left a hair off the edge is on
+                    # neither face, and FreeCAD finds a face's nodes by distance)
+                    for c in inner_curves(best[2]):
+                        if bbox_distance(curve_boxes[c], best[1]) > snap:
+                            continue
+                        try:
+                            cp, _ = gmsh.model.getClosestPoint(1, c, list(best[1]))
+                        except Exception:
+                            continue
+                        if dist(cp, best[1]) <= snap:
+                            moved[key] = tuple(cp)
+                            on_inner_edges += 1
+                            break
                 else:
                     not_on_a_face += 1
         owner = {s: -1 for s in surfaces}  # -1: the rest; i: patch i
@@ -179,7 +206,7 @@ def main():
                   "faces_gmsh_does_not_read": missing,
                   "curves_without_patch_nodes": [], "vertices_without_patch_node": [],
                   "border_nodes_not_on_an_edge": 0, "border_nodes_on_top_of_another": 0, "short_curves_one_segment": 0,
-                  "patch_nodes_not_on_a_face": not_on_a_face}
+                  "patch_nodes_not_on_a_face": not_on_a_face, "patch_nodes_onto_inner_edges": on_inner_edges}
         plans = []
         tol_of = {}
         for i, p in enumerate(patches):
