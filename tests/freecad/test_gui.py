@@ -307,6 +307,26 @@ def main():
         wait_for(lambda: False, 0.5)  # deferred recolors
         check(not Gui.getDocument(again.Name).Modified, f"reopened document with {what} is not marked modified")
 
+    # issue 12: the whole part meshed with a feature's rules in the background, an analysis to solve
+    doc3 = App.newDocument("gui_mesh_part")
+    plate = doc3.addObject("Part::Feature", "BossPlate")
+    plate.Shape = Part.read(os.path.join(os.environ["FE_MODELS"], "boss_only.step"))
+    doc3.recompute()
+    Gui.Selection.clearSelection()
+    Gui.Selection.addSelection(plate)
+    commands.MeshPart().Activated(folder=os.path.join(features, "boss"))
+    check(commands.MeshPart.running is not None, "whole-part meshing runs in the background")
+    ticks = wait_for(lambda: commands.MeshPart.running is None, 300)
+    check(ticks > 5, f"UI kept processing events while meshing the part ({ticks} polls)")
+    meshes = [o for o in doc3.Objects if o.TypeId == "Fem::FemMeshObject"]
+    analyses = [o for o in doc3.Objects if o.TypeId == "Fem::FemAnalysis"]
+    check(len(meshes) == 1 and meshes[0].FemMesh.VolumeCount > 10000, "the part's tetrahedral mesh is in the document")
+    check(len(analyses) == 1 and any(o.Name.startswith("CalculiX") for o in analyses[0].Group),
+          "an analysis with a CalculiX solver is set up")
+    wait_for(lambda: False, 0.5)  # the report view shows the line on the next events
+    if report is not None:
+        check("meshed whole" in report.toPlainText(), "meshing the part says so in the report view")
+
 
 try:
     main()
