@@ -45,6 +45,16 @@ except ImportError:
     fail(2, "the gmsh Python module is missing (apt-get install -y --no-install-recommends gmsh python3-gmsh)")
 
 
+def start_gmsh():
+    """gmsh, headless and deterministic: one thread everywhere, a fixed seed, no user config files."""
+    gmsh.initialize(["fe_gmsh_rest", "-nopopup"], readConfigFiles=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.NumThreads", 1)
+    for d in ("1D", "2D", "3D"):
+        gmsh.option.setNumber("Mesh.MaxNumThreads" + d, 1)
+    gmsh.option.setNumber("Mesh.RandomSeed", 1)
+
+
 def bbox_distance(box, p):
     """Distance from p to an axis-aligned box (x0, y0, z0, x1, y1, z1); 0 inside."""
     d2 = 0.0
@@ -87,13 +97,8 @@ def main():
     if not (size > 0 and math.isfinite(size)):
         fail(1, f"{sys.argv[1]}: size must be > 0, got {size}")
     t0 = time.time()
-    gmsh.initialize(["fe_gmsh_rest", "-nopopup"], readConfigFiles=False)
+    start_gmsh()
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.option.setNumber("Mesh.MaxNumThreads1D", 1)
-        gmsh.option.setNumber("Mesh.MaxNumThreads2D", 1)
-        gmsh.option.setNumber("Mesh.RandomSeed", 1)
         try:
             gmsh.model.occ.importShapes(part)
             gmsh.model.occ.synchronize()
@@ -268,12 +273,11 @@ def main():
         log("1D mesh done")
 
         node_tag = int(max(gmsh.model.mesh.getNodes()[0], default=0))
-        elem_tag = 0
+        elem_tag = [0]  # the last element tag used (a list: one_segment below adds to it)
         _, etags, _ = gmsh.model.mesh.getElements()
         for b in etags:
             if len(b):
-                elem_tag = max(elem_tag, int(max(b)))
-        nonlocal_tag = [elem_tag]
+                elem_tag[0] = max(elem_tag[0], int(max(b)))
         for mine, on_curve, vertex_key in plans:
             for v, key in vertex_key.items():
                 tags, _, _ = gmsh.model.mesh.getNodes(0, v)
@@ -288,19 +292,17 @@ def main():
                 if len(ends) != 2 or ends[0] == ends[1] or not all(v in vertex_key for v in ends):
                     report["curves_without_patch_nodes"].append(c)
                     return
-                nonlocal_tag[0] += 1
+                elem_tag[0] += 1
                 v0 = int(gmsh.model.mesh.getNodes(0, ends[0])[0][0])
                 v1 = int(gmsh.model.mesh.getNodes(0, ends[1])[0][0])
                 gmsh.model.mesh.clear([(1, c)])
-                gmsh.model.mesh.addElements(1, c, [1], [[nonlocal_tag[0]]], [[v0, v1]])
+                gmsh.model.mesh.addElements(1, c, [1], [[elem_tag[0]]], [[v0, v1]])
                 report["short_curves_one_segment"] += 1
 
             for c in mine:
-                nonlocal_tag[0] = max(nonlocal_tag[0], elem_tag)
                 pts = sorted((u, key, cp) for u, key, cp in on_curve[c] if key not in used_by_vertex)
                 if not pts:
                     one_segment(c)
-                    elem_tag = nonlocal_tag[0]
                     continue
                 # one node per key, in order along the curve, none on top of a vertex or of the node
                 # before it (gmsh stops on a zero-length segment)
@@ -317,7 +319,6 @@ def main():
                     uniq.append((u, key, cp))
                 if not uniq:
                     one_segment(c)
-                    elem_tag = nonlocal_tag[0]
                     continue
                 # the line elements run from the vertex at the curve's first parameter to the one at its
                 # last (a closed curve, a circle, has one vertex at both ends)
@@ -339,8 +340,8 @@ def main():
                 conn = []
                 for a, b in zip(seq[:-1], seq[1:]):
                     conn += [a, b]
-                etg = list(range(elem_tag + 1, elem_tag + len(seq)))
-                elem_tag += len(seq) - 1
+                etg = list(range(elem_tag[0] + 1, elem_tag[0] + len(seq)))
+                elem_tag[0] += len(seq) - 1
                 gmsh.model.mesh.addElements(1, c, [1], [etg], [conn])
                 log(f"curve {c}: ends {ends} u [{lo[0]:.3g}, {hi[0]:.3g}] nodes at u " + " ".join(f"{u:.3g}" for u, _, _ in uniq))
 
@@ -439,12 +440,8 @@ def fill(job):
         size = float(job["size"])
     except (KeyError, TypeError, ValueError, IndexError) as e:
         fail(1, f"{sys.argv[1]}: not a fill job: {e}")
-    gmsh.initialize(["fe_gmsh_rest", "-nopopup"], readConfigFiles=False)
+    start_gmsh()
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.option.setNumber("Mesh.MaxNumThreads3D", 1)
-        gmsh.option.setNumber("Mesh.RandomSeed", 1)
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
         gmsh.model.add("fill")
         surf = gmsh.model.addDiscreteEntity(2)

@@ -126,6 +126,17 @@ void orient_like_patches(FeMesh& m, int patch_elements) {
   }
 }
 
+// The answer's [tag, x, y, z] rows into m.nodes from row `first` on; tag -> row into *row_of.
+void read_tagged_nodes(const nlohmann::json& rows, Eigen::Index first, FeMesh& m, std::unordered_map<long, int>* row_of,
+                       const char* what) {
+  Eigen::Index r = first;
+  for (const auto& nd : rows) {
+    if (!nd.is_array() || nd.size() != 4) bad_answer(std::string(what) + " is not [tag, x, y, z]");
+    m.nodes.row(r) << nd[1].get<double>(), nd[2].get<double>(), nd[3].get<double>();
+    (*row_of)[nd[0].get<long>()] = static_cast<int>(r++);
+  }
+}
+
 }  // namespace
 
 std::string set_name(const std::string& text) {
@@ -295,12 +306,7 @@ FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::stri
   }
   // the rest's nodes: gmsh tag -> row
   std::unordered_map<long, int> row_of;
-  long r = total;
-  for (const auto& nd : j["nodes"]) {
-    if (!nd.is_array() || nd.size() != 4) bad_answer("a node is not [tag, x, y, z]");
-    out.nodes.row(r) << nd[1].get<double>(), nd[2].get<double>(), nd[3].get<double>();
-    row_of[nd[0].get<long>()] = static_cast<int>(r++);
-  }
+  read_tagged_nodes(j["nodes"], total, out, &row_of, "a node");
   for (const auto& jn : j["joined"]) {
     const long k = jn[1].get<long>();
     if (k < 0 || k >= total) bad_answer("a joined node's key " + std::to_string(k) + " is not a patch node");
@@ -412,12 +418,7 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
   out.nodes.resize(n0 + static_cast<Eigen::Index>(j["nodes"].size()), 3);
   out.nodes.topRows(n0) = surface.nodes;
   std::unordered_map<long, int> inner;
-  Eigen::Index r = n0;
-  for (const auto& nd : j["nodes"]) {
-    if (!nd.is_array() || nd.size() != 4) bad_answer("an inner node is not [tag, x, y, z]");
-    out.nodes.row(r) << nd[1].get<double>(), nd[2].get<double>(), nd[3].get<double>();
-    inner[nd[0].get<long>()] = static_cast<int>(r++);
-  }
+  read_tagged_nodes(j["nodes"], n0, out, &inner, "an inner node");
   out.node_ids.resize(static_cast<std::size_t>(out.nodes.rows()));
   for (Eigen::Index i = 0; i < out.nodes.rows(); ++i) out.node_ids[static_cast<std::size_t>(i)] = i + 1;
   ElementBlock b;
