@@ -280,6 +280,24 @@ double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& 
   return std::sqrt(dn * dn + over * over);
 }
 
+// surface_distance where only values below `cap` matter (errors truncated at a penalty): the same
+// value and nearest sample whenever the distance is below cap; cap itself, with *nearest = -1, when no
+// sample lies near enough for it to be (the tangential offset counts only beyond one spacing h, so the
+// distance is at least the nearest sample's minus h). Far points stop the tree search early.
+double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, double cap, int* nearest) {
+  *nearest = -1;
+  if (!p.allFinite() || t.dense_tree->size() == 0) return INFINITY;
+  double d2;
+  const int j = t.dense_tree->nearest_within(p, 1.01 * (cap + t.dense_h), &d2);
+  if (j < 0) return cap;
+  *nearest = j;
+  const Eigen::Vector3d q = t.dense.points.row(j), n = t.dense_normals.row(j);
+  const double dn = std::abs((p - q).dot(n));
+  const double dt = std::sqrt(std::max(0.0, d2 - dn * dn));
+  const double over = std::max(0.0, dt - t.dense_h);
+  return std::sqrt(dn * dn + over * over);
+}
+
 // Axisymmetry of the reference (issue 5): on a surface of revolution every normal line meets the
 // axis, so the Pluecker coordinates (n, x x n) of all normal lines satisfy one linear equation
 // a.(x x n) + m.n = 0 with (a, m) the axis line. The smallest singular vector of that system gives
@@ -656,15 +674,14 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   }
   const std::vector<Eigen::Index> dense_rows = sub_rows(core_dense, 1500);
   const Eigen::Vector3d rlo = R.keys.colwise().minCoeff(), rhi = R.keys.colwise().maxCoeff();
-  double best_cost_now = INFINITY;  // for early exit inside the cost while a RANSAC runs
   // RMS distance of the mapped reference (dense subsample) to the target surface, model units: the
   // fit error reported before and after the surface refinement.
   auto rms_on_surface = [&](const Eigen::Matrix4d& H) {
+    std::vector<double> e(dense_rows.size());  // on all threads, summed in order
+#pragma omp parallel for schedule(static)
+    for (std::size_t k = 0; k < dense_rows.size(); ++k) e[k] = surface_distance(T, apply_transform(H, R.dense.points.row(dense_rows[k]).transpose()));
     double sq = 0;
-    for (const Eigen::Index i : dense_rows) {
-      const double e = surface_distance(T, apply_transform(H, R.dense.points.row(i).transpose()));
-      sq += std::isfinite(e) ? e * e : L * L;
-    }
+    for (const double ek : e) sq += std::isfinite(ek) ? ek * ek : L * L;
     return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows.size())));
   };
   const Symmetry sym = detect_axisymmetry(refine_pts, refine_nrm, L);
@@ -690,20 +707,37 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   std::vector<double> errs;
   // Error of H at evaluation point i, in reference units (divided by the scale s of H): distance to
   // the target surface, or at least `normal_penalty` where the normals disagree; +inf off the target.
-  auto point_error = [&](const Eigen::Matrix4d& H, Eigen::Index i, double s) -> double {
+  // With `capped`, errors of normal_penalty or more may come back as normal_penalty (for the sums
+  // that truncate there anyway): the same sums, with a search that stops at the penalty.
+  auto point_error = [&](const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped = false) -> double {
     const Eigen::Vector3d x = eval_pts.row(i);
     int j;
-    double e = surface_distance(T, apply_transform(H, x), &j) / s;
-    if (!std::isfinite(e) || j < 0) return INFINITY;
+    double e;
+    if (capped) {
+      e = surface_distance_capped(T, apply_transform(H, x), normal_penalty * s, &j) / s;
+      if (!std::isfinite(e)) return INFINITY;
+      if (j < 0) return normal_penalty;
+    } else {
+      e = surface_distance(T, apply_transform(H, x), &j) / s;
+      if (!std::isfinite(e) || j < 0) return INFINITY;
+    }
     if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm.row(i).transpose()).normalized().dot(T.dense_normals.row(j)) < 0.5)
       e = std::max(e, normal_penalty);
     return e;
   };
-  auto point_errors = [&](const Eigen::Matrix4d& H, double s, double sum_limit) -> bool {
+  auto point_errors = [&](const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped = false) -> bool {
+    if (!std::isfinite(sum_limit) && !omp_in_parallel()) {  // nothing to stop early for: all threads
+      errs.assign(static_cast<std::size_t>(eval_pts.rows()), 0.0);
+#pragma omp parallel for schedule(static)
+      for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) errs[static_cast<std::size_t>(i)] = point_error(H, i, s, capped);
+      for (const double e : errs)
+        if (!std::isfinite(e)) return false;
+      return true;
+    }
     errs.clear();
     double sum = 0;
     for (Eigen::Index i = 0; i < eval_pts.rows(); ++i) {
-      const double e = point_error(H, i, s);
+      const double e = point_error(H, i, s, capped);
       if (!std::isfinite(e)) return false;
       errs.push_back(e);
       sum += std::min(e, normal_penalty);
@@ -712,15 +746,16 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     return true;
   };
   // Selection cost (RANSAC, refinement): mean error truncated at the penalty (MSAC), continuous so
-  // that a refinement can see progress where a quantile would sit on the penalty.
-  auto cost = [&](const Eigen::Matrix4d& H) -> double {
+  // that a refinement can see progress where a quantile would sit on the penalty. +inf as soon as it
+  // cannot come under `limit` (the best so far, in a search). Safe to call from several threads.
+  auto cost = [&](const Eigen::Matrix4d& H, double limit = INFINITY) -> double {
     double s;
     if (!bounds_ok(H, &s)) return INFINITY;
-    const double limit = std::isfinite(best_cost_now) ? best_cost_now * static_cast<double>(eval_pts.rows()) : INFINITY;
-    if (!point_errors(H, s, limit)) return INFINITY;
+    thread_local std::vector<double> buf;
+    if (!point_errors(H, s, std::isfinite(limit) ? limit * static_cast<double>(eval_pts.rows()) : INFINITY, buf, true)) return INFINITY;
     double sum = 0;
-    for (double e : errs) sum += std::min(e, normal_penalty);
-    return sum / static_cast<double>(errs.size());
+    for (double e : buf) sum += std::min(e, normal_penalty);
+    return sum / static_cast<double>(buf.size());
   };
   // Screening of one-pair placements: the truncated mean error over 40 of the evaluation points,
   // with the scale estimate s (no bounds test: the refinement may still bring it within them).
@@ -728,7 +763,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   auto screen_cost = [&](const Eigen::Matrix4d& H, double s) -> double {
     double sum = 0;
     for (const Eigen::Index i : screen_rows) {
-      const double e = point_error(H, i, s);
+      const double e = point_error(H, i, s, true);
       if (!std::isfinite(e)) return INFINITY;
       sum += std::min(e, normal_penalty);
     }
@@ -737,7 +772,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   // Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile).
   auto quantile_error = [&](const Eigen::Matrix4d& H) -> double {
     double s;
-    if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY)) return INFINITY;
+    if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY, errs)) return INFINITY;
     const std::size_t q = std::min(errs.size() - 1, static_cast<std::size_t>(p.error_quantile * static_cast<double>(errs.size())));
     std::nth_element(errs.begin(), errs.begin() + static_cast<long>(q), errs.end());
     return errs[q];
@@ -876,12 +911,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       ro.ratio_min = 0.8 * p.axis_scale_min;  // slack for key points that sit a sample spacing off
       ro.ratio_max = 1.25 * p.axis_scale_max;
       ro.seed = p.seed * 1000003ULL + (++run);
-      best_cost_now = INFINITY;
-      const std::function<double(const Eigen::Matrix4d&)> costfn = [&](const Eigen::Matrix4d& H) {
-        const double c = cost(H);
-        if (c < best_cost_now) best_cost_now = c;
-        return c;
-      };
+      ro.batch = 16;  // scored on both cores, the same result as one at a time
       // Placements from one pair each (issue 9): the pair's local frames give the rotation, its SHOT
       // radius shift the scale. Where few pairs are right (a real part's cluster), a 5-pair sample is
       // rarely all right, one pair often is. SHOT's frame axes can flip sign: the four proper sign
@@ -893,24 +923,32 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         // screened on a few evaluation points, the best few scored in full
         const Eigen::Vector3d flips[4] = {{1, 1, 1}, {-1, -1, 1}, {-1, 1, -1}, {1, -1, -1}};
         const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 1500);
-        std::vector<std::pair<double, Eigen::Matrix4d>> screened;
-        for (std::size_t i = 0; i < pairs.size(); i += stride) {
+        // (on all threads: each placement's slot is its own, and they are gathered in order)
+        const std::size_t m = (pairs.size() + stride - 1) / stride;
+        std::vector<double> q4(4 * m, INFINITY);
+        std::vector<Eigen::Matrix4d> h4(4 * m);
+#pragma omp parallel for schedule(dynamic, 16)
+        for (std::size_t k = 0; k < m; ++k) {
+          const std::size_t i = k * stride;
           const Eigen::Matrix3d fr = r_frame(pairs[i]), ft = t_frame(pairs[i]);
           if (!fr.allFinite() || !ft.allFinite()) continue;
-          for (const Eigen::Vector3d& f : flips) {
-            const Eigen::Matrix3d lin = scales[i] * ft.transpose() * f.asDiagonal() * fr;
-            Eigen::Matrix4d Hc = Eigen::Matrix4d::Identity();
+          for (int f = 0; f < 4; ++f) {
+            const Eigen::Matrix3d lin = scales[i] * ft.transpose() * flips[f].asDiagonal() * fr;
+            Eigen::Matrix4d& Hc = h4[4 * k + static_cast<std::size_t>(f)];
+            Hc.setIdentity();
             Hc.topLeftCorner<3, 3>() = lin;
             Hc.topRightCorner<3, 1>() = tp.row(static_cast<Eigen::Index>(i)).transpose() - lin * rp.row(static_cast<Eigen::Index>(i)).transpose();
-            const double q = screen_cost(Hc, scales[i]);
-            if (std::isfinite(q)) screened.emplace_back(q + 1e-12 * static_cast<double>(i), Hc);
+            q4[4 * k + static_cast<std::size_t>(f)] = screen_cost(Hc, scales[i]);
           }
         }
+        std::vector<std::pair<double, Eigen::Matrix4d>> screened;
+        for (std::size_t k = 0; k < 4 * m; ++k)
+          if (std::isfinite(q4[k])) screened.emplace_back(q4[k] + 1e-12 * static_cast<double>((k / 4) * stride), h4[k]);
         const std::size_t keep = std::min<std::size_t>(screened.size(), 24);
         std::partial_sort(screened.begin(), screened.begin() + static_cast<long>(keep), screened.end(),
                           [](const auto& a, const auto& b) { return a.first < b.first; });
         for (std::size_t k = 0; k < keep; ++k) {
-          const double c = costfn(screened[k].second);
+          const double c = cost(screened[k].second, pose_cost);
           if (c < pose_cost) { pose_cost = c; pose_h = screened[k].second; }
         }
         if (std::isfinite(pose_cost)) {  // the pair whose target point lies nearest the mapped one
@@ -921,8 +959,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
           }
         }
       }
-      best_cost_now = INFINITY;  // RANSAC on its own (the one-pair placements must not cut its search short)
-      RansacResult rr = ransac_projective(rp, tp, costfn, ro, [&] { return progress && !progress("ransac", ransac_fraction()); });
+      // RANSAC on its own (the one-pair placements must not cut its search short)
+      RansacResult rr = ransac_projective(rp, tp, std::function<double(const Eigen::Matrix4d&, double)>(cost), ro, [&] { return progress && !progress("ransac", ransac_fraction()); });
       if (progress && !progress("ransac", ransac_fraction())) throw Cancelled();
       if (!rr.found && pose_pair < 0) {
         if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), rr.iterations);
@@ -953,7 +991,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
               b.row(static_cast<Eigen::Index>(k)) = tp.row(in[k]);
             }
             Eigen::Matrix4d H2;
-            best_cost_now = INFINITY;
             if (fit_projective(a, b, H2) && cost(H2) <= cost0) {
               H = H2;
               bounds_ok(H, &s);
@@ -974,26 +1011,28 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
           auto refine = [&](const Eigen::Matrix4d& H0, double s0, bool grow) -> Refined {
             Eigen::Matrix4d H = H0;
             double s = s0;
-            best_cost_now = INFINITY;
             double c0 = cost(H);
             double r0 = grow ? reverse_pairs(H, s, nullptr, nullptr) : 0.0;
             const double r_start = r0;
             const double search_radius = 0.25 * L;
-            std::vector<int> near_idx;
-            std::vector<float> near_d2;
             for (int iter = 0; iter < p.refine_iterations && std::isfinite(c0); ++iter) {
-              std::vector<Eigen::Vector3d> a, b;
-              std::vector<double> e;
-              for (Eigen::Index k = 0; k < refine_pts.rows(); ++k) {
-                const Eigen::Vector3d x = refine_pts.row(k);
+              // foot points on all threads, each in its own slot, gathered in order
+              const std::size_t nr = static_cast<std::size_t>(refine_pts.rows());
+              std::vector<Eigen::Vector3d> fa(nr), fb(nr);
+              std::vector<double> fe(nr, -1.0);  // < 0: no foot point
+#pragma omp parallel for schedule(dynamic, 32)
+              for (std::size_t k = 0; k < nr; ++k) {
+                const Eigen::Vector3d x = refine_pts.row(static_cast<Eigen::Index>(k));
                 const Eigen::Vector3d y = apply_transform(H, x);
                 // nearest target sample whose normal agrees (so the ends of a shortened rib find its end
                 // faces instead of being dropped, and pull the fit out to full length)
-                const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(k).transpose()).normalized();
+                const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * refine_nrm.row(static_cast<Eigen::Index>(k)).transpose()).normalized();
                 double d2;
                 int j = T.dense_tree->nearest(y, &d2);
                 if (j < 0) continue;
                 if (nm.dot(T.dense_normals.row(j)) < 0.5) {
+                  thread_local std::vector<int> near_idx;
+                  thread_local std::vector<float> near_d2;
                   T.dense_tree->radius(y, search_radius * s, near_idx, near_d2);
                   j = -1;
                   d2 = INFINITY;
@@ -1002,10 +1041,18 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
                   if (j < 0) continue;
                 }
                 const Eigen::Vector3d q = T.dense.points.row(j), n = T.dense_normals.row(j);
-                a.push_back(x);
-                b.push_back(y - (y - q).dot(n) * n);
-                e.push_back(std::sqrt(d2));
+                fa[k] = x;
+                fb[k] = y - (y - q).dot(n) * n;
+                fe[k] = std::sqrt(d2);
               }
+              std::vector<Eigen::Vector3d> a, b;
+              std::vector<double> e;
+              for (std::size_t k = 0; k < nr; ++k)
+                if (fe[k] >= 0) {
+                  a.push_back(fa[k]);
+                  b.push_back(fb[k]);
+                  e.push_back(fe[k]);
+                }
               if (a.size() < 20) break;
               std::vector<double> sorted = e;
               std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
@@ -1029,7 +1076,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
               bool ok = n >= 20 && fit_projective(A, B, H2) && bounds_ok(H2, nullptr);
               if (!ok) ok = n >= 20 && fit_affine(A, B, H2) && bounds_ok(H2, nullptr);
               if (!ok) break;
-              best_cost_now = INFINITY;
               const double c1 = cost(H2);
               double s2 = s;
               bounds_ok(H2, &s2);
@@ -1082,7 +1128,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
           }
           bounds_ok(H, &s);
         }
-        best_cost_now = INFINITY;
         Polished out;
         out.H = H;
         out.s = s;

@@ -73,6 +73,21 @@ int KdTree3::nearest(const Eigen::Vector3d& q, double* d2) const {
   return i;
 }
 
+int KdTree3::nearest_within(const Eigen::Vector3d& q, double r, double* d2) const {
+  if (d2) *d2 = std::numeric_limits<double>::infinity();
+  if (n_ == 0 || !q.allFinite() || !(r > 0)) return -1;
+  const float p[3] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())};
+  int i = -1;
+  float dd = 0;
+  nanoflann::KNNResultSet<float, int, std::size_t> rs(1);
+  rs.init(&i, &dd);
+  dd = static_cast<float>(r * r);  // the worst distance accepted: nodes beyond r are never opened
+  impl_->index->findNeighbors(rs, p, nanoflann::SearchParams());
+  if (rs.size() == 0) return -1;
+  if (d2) *d2 = dd;
+  return i;
+}
+
 void KdTree3::knn(const Eigen::Vector3d& q, int k, std::vector<int>& idx, std::vector<float>& d2) const {
   idx.clear();
   d2.clear();

@@ -38,6 +38,12 @@ std::pair<double, double> tetra_volumes(const Eigen::Matrix<double, 5, 3>& p) {
 
 RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::function<double(const Eigen::Matrix4d&)>& cost,
                                const RansacOptions& o, const std::function<bool()>& cancelled) {
+  return ransac_projective(ref, tgt, std::function<double(const Eigen::Matrix4d&, double)>([&](const Eigen::Matrix4d& H, double) { return cost(H); }), o,
+                           cancelled);
+}
+
+RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::function<double(const Eigen::Matrix4d&, double)>& cost,
+                               const RansacOptions& o, const std::function<bool()>& cancelled) {
   RansacResult best;
   best.cost = INFINITY;
   const int n = static_cast<int>(ref.rows());
@@ -54,11 +60,16 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
     if (rmax > 0) return dt >= rmin * dr && dt <= rmax * dr;
     return true;
   };
-  int since_best = 0;
-  for (int it = 0; it < o.max_iterations && since_best < o.patience; ++it) {
-    if ((it & 63) == 0 && cancelled && cancelled()) break;
-    ++best.iterations;
-    ++since_best;
+  // One iteration's draw: a hypothesis H and its sample, or nothing (a degenerate or thin sample).
+  struct Draw {
+    bool ok = false;
+    Eigen::Matrix4d H;
+    std::array<int, 5> sample;
+    bool affine = false;
+    double cost = INFINITY;
+  };
+  auto draw = [&](Draw& d) {
+    d.ok = false;
     const int first = static_cast<int>(rng() % static_cast<std::uint64_t>(n));
     double locality = o.locality;
     rmin = o.ratio_min;
@@ -86,7 +97,7 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
       }
       cand.push_back(c);
     }
-    if (cand.size() < 4) continue;
+    if (cand.size() < 4) return;
     std::array<int, 5> s{{first, -1, -1, -1, -1}};
     int filled = 1;
     for (int attempt = 0; attempt < 60 && filled < 5; ++attempt) {
@@ -95,7 +106,7 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
       for (int k = 1; k < filled && ok; ++k) ok = c != s[static_cast<std::size_t>(k)] && consistent(c, s[static_cast<std::size_t>(k)]);
       if (ok) s[static_cast<std::size_t>(filled++)] = c;
     }
-    if (filled < 5) continue;
+    if (filled < 5) return;
     Eigen::Matrix<double, 5, 3> r, t;
     for (int k = 0; k < 5; ++k) {
       r.row(k) = ref.row(s[static_cast<std::size_t>(k)]);
@@ -104,22 +115,54 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
     // The paper's 5-pair projective solve when the sample determines it; when 4 of the 5 points
     // are (nearly) coplanar it does not, and an affine fit on the same 5 pairs is used instead.
     const auto vr = tetra_volumes(r), vt = tetra_volumes(t);
-    Eigen::Matrix4d H;
     if (!o.affine_only && std::min(vr.first, vt.first) >= o.min_tetra_volume) {
-      if (!solve_projective_5(r, t, H)) continue;
+      if (!solve_projective_5(r, t, d.H)) return;
     } else if (std::min(vr.second, vt.second) >= o.min_tetra_volume) {
-      if (!fit_affine(Points(r), Points(t), H)) continue;
-      ++best.affine_samples;
+      if (!fit_affine(Points(r), Points(t), d.H)) return;
+      d.affine = true;
     } else {
-      continue;
+      return;
     }
-    const double c = cost(H);
-    if (c < best.cost) {
-      best.cost = c;
-      best.H = H;
-      best.found = true;
-      best.sample = s;
-      since_best = 0;
+    d.sample = s;
+    d.ok = true;
+  };
+  const int batch = std::max(1, o.batch);
+  std::vector<Draw> draws(static_cast<std::size_t>(batch));
+  int since_best = 0;
+  int it = 0;
+  bool stop = false;
+  while (!stop && it < o.max_iterations && since_best < o.patience) {
+    // draw the next iterations in order (the random stream is the sequential one) ...
+    const int m = std::min(batch, o.max_iterations - it);
+    for (int k = 0; k < m; ++k) draw(draws[static_cast<std::size_t>(k)]);
+    // ... score them, each against the best before the batch (a looser limit than the sequential
+    // one, so no hypothesis that could win is cut short) ...
+    const double limit = best.cost;
+    if (m > 1) {
+#pragma omp parallel for schedule(dynamic, 1)
+      for (int k = 0; k < m; ++k)
+        if (draws[static_cast<std::size_t>(k)].ok) draws[static_cast<std::size_t>(k)].cost = cost(draws[static_cast<std::size_t>(k)].H, limit);
+    } else if (draws[0].ok) {
+      draws[0].cost = cost(draws[0].H, limit);
+    }
+    // ... and take them in order, with the stopping rule as if one at a time
+    for (int k = 0; k < m; ++k, ++it) {
+      if (since_best >= o.patience || ((it & 63) == 0 && cancelled && cancelled())) {
+        stop = true;
+        break;
+      }
+      ++best.iterations;
+      ++since_best;
+      const Draw& d = draws[static_cast<std::size_t>(k)];
+      if (!d.ok) continue;
+      if (d.affine) ++best.affine_samples;
+      if (d.cost < best.cost) {
+        best.cost = d.cost;
+        best.H = d.H;
+        best.found = true;
+        best.sample = d.sample;
+        since_best = 0;
+      }
     }
   }
   return best;

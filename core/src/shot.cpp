@@ -1,6 +1,7 @@
 #include "shot.h"
 
 #include <pcl/console/print.h>
+#include <pcl/features/shot_lrf_omp.h>
 #include <pcl/features/shot_omp.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
@@ -94,7 +95,18 @@ ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points
     const Level& level = level_for(radii[static_cast<std::size_t>(r)]);
     const auto& surface = level.cloud;
     const auto& tree = level.tree;
+    // The local frames first, on the level's tree: left to itself, SHOT's frame estimation builds a
+    // kd-tree of its own over the whole support, once per radius (a second each on a 900k-point part).
+    pcl::SHOTLocalReferenceFrameEstimationOMP<pcl::PointNormal, pcl::ReferenceFrame> lrf;
+    lrf.setNumberOfThreads(threads > 0 ? static_cast<unsigned>(threads) : 0U);
+    lrf.setRadiusSearch(radii[static_cast<std::size_t>(r)]);
+    lrf.setInputCloud(key_cloud);
+    lrf.setSearchSurface(surface);
+    lrf.setSearchMethod(tree);
+    pcl::PointCloud<pcl::ReferenceFrame>::Ptr frames(new pcl::PointCloud<pcl::ReferenceFrame>);
+    lrf.compute(*frames);
     pcl::SHOTEstimationOMP<pcl::PointNormal, pcl::PointNormal, pcl::SHOT352> shot(threads > 0 ? threads : 0);
+    shot.setInputReferenceFrames(frames);
     shot.setInputCloud(key_cloud);
     shot.setSearchSurface(surface);
     shot.setInputNormals(surface);

@@ -1,8 +1,11 @@
 // The projective solver of eqs. (3.2)-(3.4) and RANSAC (issue 2 tests).
 #include "featureextract/geometry.h"
+#include "../../core/src/kdtree.h"  // internal: the capped query RANSAC relies on
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <limits>
 #include <random>
 
 namespace {
@@ -104,4 +107,78 @@ TEST(Ransac, RecoversTransformWithHalfThePairsWrong) {
   const fe::RansacResult again = fe::ransac_projective(r, t, cost, o);
   EXPECT_EQ(res.H, again.H);
   EXPECT_EQ(res.iterations, again.iterations);
+}
+
+// Scoring a batch of hypotheses on all threads (RansacOptions::batch) changes the time only: the
+// same samples, the same stopping iteration and the same transform as one at a time, also with a
+// cost that stops early past the best so far.
+TEST(Ransac, BatchedScoringOnAllThreadsGivesTheSequentialResult) {
+  std::mt19937 rng(11);
+  const Eigen::Matrix4d H = known_H();
+  const int n = 80;
+  const fe::Points r = random_points(n, rng);
+  fe::Points t = map(H, r);
+  std::normal_distribution<double> noise(0, 0.01);
+  std::uniform_real_distribution<double> u(-8, 8);
+  for (int i = 0; i < n; ++i) {
+    if (i % 3 == 0)
+      t.row(i) << u(rng), u(rng), u(rng);  // a third outliers
+    else
+      t.row(i) += Eigen::RowVector3d(noise(rng), noise(rng), noise(rng));  // the rest noisy: the best keeps improving
+  }
+  std::atomic<int> calls{0};
+  auto cost = [&](const Eigen::Matrix4d& E, double limit) {
+    ++calls;
+    double sum = 0;
+    for (int i = 0; i < n; ++i) {
+      sum += std::min(0.5, (fe::apply_transform(E, r.row(i).transpose()) - t.row(i).transpose()).norm());
+      if (sum > limit * n) return std::numeric_limits<double>::infinity();  // cannot beat the best
+    }
+    return sum / n;
+  };
+  fe::RansacOptions o;
+  o.seed = 3;
+  o.max_iterations = 4000;
+  o.patience = 150;
+  const fe::RansacResult one = fe::ransac_projective(r, t, std::function<double(const Eigen::Matrix4d&, double)>(cost), o);
+  ASSERT_TRUE(one.found);
+  ASSERT_LT(one.iterations, o.max_iterations);  // stopped by patience, the case a batch must get right
+  for (const int batch : {2, 16, 64}) {
+    o.batch = batch;
+    const fe::RansacResult b = fe::ransac_projective(r, t, std::function<double(const Eigen::Matrix4d&, double)>(cost), o);
+    EXPECT_EQ(b.H, one.H) << "batch " << batch;
+    EXPECT_EQ(b.cost, one.cost) << "batch " << batch;
+    EXPECT_EQ(b.iterations, one.iterations) << "batch " << batch;
+    EXPECT_EQ(b.sample, one.sample) << "batch " << batch;
+  }
+  EXPECT_GT(calls.load(), 3 * one.iterations / 2);  // the batches did run (four searches' worth of calls)
+}
+
+// The capped nearest-point query that RANSAC's cost uses: the very point nearest() gives whenever
+// that one lies within the radius, and none otherwise.
+TEST(KdTree, NearestWithinIsNearestOrNone) {
+  std::mt19937 rng(5);
+  const fe::Points p = random_points(3000, rng);
+  const fe::KdTree3 tree(p);
+  std::uniform_real_distribution<double> u(-3, 3), ur(0.01, 1.5);
+  int within = 0, beyond = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Eigen::Vector3d q(u(rng), u(rng), u(rng));
+    const double r = ur(rng);
+    double d2 = 0, c2 = 0;
+    const int j = tree.nearest(q, &d2);
+    const int c = tree.nearest_within(q, r, &c2);
+    if (d2 < r * r * (1 - 1e-6)) {
+      ++within;
+      EXPECT_EQ(c, j);
+      EXPECT_EQ(c2, d2);
+    } else if (d2 > r * r * (1 + 1e-6)) {
+      ++beyond;
+      EXPECT_EQ(c, -1);
+    }
+  }
+  EXPECT_GT(within, 200);
+  EXPECT_GT(beyond, 200);
+  double d2 = 0;
+  EXPECT_EQ(tree.nearest_within(Eigen::Vector3d(INFINITY, 0, 0), 1.0, &d2), -1);
 }

@@ -113,6 +113,10 @@ struct RansacOptions {
   /// Fit an affine H (least squares on the 5 pairs) for every sample instead of the projective solve.
   bool affine_only = false;
   std::uint64_t seed = 1;
+  /// Hypotheses drawn ahead and scored together, on all OpenMP threads when > 1 (the cost must then
+  /// be safe to call concurrently). The samples, the stopping rule and so the result are the same
+  /// for every batch size and thread count; a batch only wastes the draws past the stop.
+  int batch = 1;
 };
 struct RansacResult {
   bool found = false;
@@ -124,6 +128,12 @@ struct RansacResult {
 };
 RansacResult ransac_projective(const Points& ref, const Points& tgt,
                                const std::function<double(const Eigen::Matrix4d&)>& cost,
+                               const RansacOptions& options,
+                               const std::function<bool()>& cancelled = {});
+/// The same with a cost that is told the best cost so far (`limit`): it may return +inf as soon as it
+/// knows its value cannot be below the limit, which changes nothing but the time.
+RansacResult ransac_projective(const Points& ref, const Points& tgt,
+                               const std::function<double(const Eigen::Matrix4d&, double limit)>& cost,
                                const RansacOptions& options,
                                const std::function<bool()>& cancelled = {});
 
