@@ -17,6 +17,7 @@ PACKAGES=(
   clang libclang-rt-14-dev   # libFuzzer and the sanitizers: the fuzzing build (fuzz/, issue 10)
   occt-misc   # real parts for bench/user_cases.py (Top.brep)
   gmsh python3-gmsh calculix-ccx   # mesh-part: gmsh meshes the rest of the part (a separate program), CalculiX solves it (issue 12)
+  python3-distributed python3-psycopg2 python3-matplotlib postgresql   # library search, batch on Dask into SQLite/PostgreSQL, thumbnails (issue 13)
 )
 [ -n "${FE_SKIP_APT:-}" ] || tools/install_packages.sh "${PACKAGES[@]}"
 

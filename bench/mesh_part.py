@@ -24,7 +24,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def cases(build):
-    feats = os.path.join(ROOT, "Resources", "features")
+    feats = os.path.join(ROOT, "Resources", "library")
     return {
         "example_plate": {"target": os.path.join(build, "models", "ribs_bosses.step"),
                           "features": [os.path.join(feats, "rib"), os.path.join(feats, "boss")]},

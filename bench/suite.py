@@ -286,7 +286,7 @@ def run_transfers(args):
     for feature, case in TRANSFERS:
         odir = os.path.join(args.build, "suite_results", f"mesh_{feature}_{case}")
         run = run_child([os.path.join(args.build, "featureextract"), "mesh", "-q", "--feature",
-                         os.path.join(ROOT, "Resources", "features", feature), "--target",
+                         os.path.join(ROOT, "Resources", "library", feature), "--target",
                          os.path.join(args.models, "suite", case + ".step"), "--output", odir, "--seed", str(args.seed)],
                         args.timeout)
         row = {"feature": feature, "case": case, "seconds": run["seconds"], "error": run.get("error")}
@@ -414,7 +414,7 @@ def markdown(cases, names, rows, scaling, args, transfers=None):
             L.append("")
     if transfers:
         L.append("### FE mesh transfer (`featureextract mesh`)\n")
-        L.append("The shipped feature folders (`Resources/features`) placed on every instance found. Distances in mm; "
+        L.append("The shipped feature folders (`Resources/library`) placed on every instance found. Distances in mm; "
                  "SJ = scaled Jacobian (1 perfect, < 0 inverted), AR = aspect ratio, angle = smallest element angle.\n")
         L.append("| feature | target | instances | nodes each | unprojected nodes | max node-surface distance | "
                  "largest node move | inverted elements | min SJ before / after | median AR before / after | "

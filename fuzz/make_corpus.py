@@ -75,7 +75,7 @@ def main(out):
                                  "*ELEMENT, TYPE=C3D4, ELSET=C\n3, 1, 2, 4, 5\n*NSET, NSET=TOP\n3, 4\n*ELSET, ELSET=ALL\nA, B\n")
     write(f"{out}/msh/tiny.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
                                  "$EndNodes\n$Elements\n1 2 1 2\n2 1 2 2\n1 1 2 3\n2 1 3 4\n$EndElements\n")
-    feat = os.path.join(ROOT, "Resources", "features")
+    feat = os.path.join(ROOT, "Resources", "library")
     for name in sorted(os.listdir(feat)):
         d = os.path.join(feat, name)
         for f in os.listdir(d):

@@ -13,7 +13,7 @@ kinds=${*:-stl obj ply step iges brep inp msh feature params}
 bad="$here/../../shared/data/bad-input"
 work=$(mktemp -d /tmp/fe_fuzz_run.XXXXXX)
 trap 'rm -rf "$work"' EXIT
-export FE_FUZZ_TMP="$work" FE_FUZZ_FEATURE="$here/../Resources/features/rib"
+export FE_FUZZ_TMP="$work" FE_FUZZ_FEATURE="$here/../Resources/library/rib"
 export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 /usr/bin/python3 "$here/make_corpus.py" "$work/seeds" >/dev/null || { echo "fuzz: cannot make the seed corpus"; exit 1; }
 status=0

@@ -3,7 +3,7 @@
 
 Usage:
     /usr/bin/python3 tools/make_features.py MODELS_DIR OUT_DIR
-    e.g. /usr/bin/python3 tools/make_features.py build/models Resources/features
+    e.g. /usr/bin/python3 tools/make_features.py build/models Resources/library
 
 Reads MODELS_DIR/suite/rib_reference.step and MODELS_DIR/suite/boss_reference.step
 (written by `build/fe_make_models build/models --suite`) and writes
@@ -205,6 +205,10 @@ def build_rib(step):
     }
     spec = {
         "name": "rib",
+        "class": "rib",
+        "description": "a straight stiffening rib with root fillets on a plate",
+        "search": {"scale_min": 0.8, "scale_max": 2.6, "params": {}},
+        "thumbnail": "thumbnail.png",
         "geometry": "geometry.step", "mesh": "mesh.inp", "mesh_msh": "mesh.msh",
         "mesh_msh_format": "gmsh ASCII %.1f" % MSH_VERSION,
         "unit": "mm",
@@ -308,6 +312,10 @@ def build_boss(step):
     axis_point = [round(cx, 6) + 0.0, round(cy, 6) + 0.0, round(zmin, 6) + 0.0]
     spec = {
         "name": "screw boss",
+        "class": "boss",
+        "description": "a cylindrical screw boss with a root fillet and a flat top for the bolt",
+        "search": {"scale_min": 0.8, "scale_max": 2.6, "params": {}},
+        "thumbnail": "thumbnail.png",
         "geometry": "geometry.step", "mesh": "mesh.inp", "mesh_msh": "mesh.msh",
         "mesh_msh_format": "gmsh ASCII %.1f" % MSH_VERSION,
         "unit": "mm",

@@ -1,6 +1,6 @@
 """Places a reference feature folder's FE mesh on a part with the workbench and renders it (README).
 
-Run under a virtual display: FE_TARGET=part.step FE_FEATURE=Resources/features/rib FE_PNG=out.png \
+Run under a virtual display: FE_TARGET=part.step FE_FEATURE=Resources/library/rib FE_PNG=out.png \
   [FE_ZOOM=1.6] QTWEBENGINE_DISABLE_SANDBOX=1 xvfb-run -a -s "-screen 0 1280x1024x24" freecad tools/render_meshes.py
 The part is drawn grey and half transparent, the meshes colored by element quality. Exits the GUI itself."""
 import os

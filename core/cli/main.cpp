@@ -26,6 +26,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -427,16 +428,51 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   }
   return 0;
 }
+// The library program (core/library/fe_library.py: library, search, batch, report), found as the mesher is.
+std::string library_program() {
+  std::error_code ec;
+  if (const char* e = std::getenv("FE_LIBRARY_PROGRAM"); e && *e) return std::filesystem::is_regular_file(e, ec) ? e : "";
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  for (const auto& p : {exe.parent_path() / "fe_library.py", exe.parent_path() / ".." / "share" / "featureextract" / "fe_library.py"})
+    if (std::filesystem::exists(p, ec)) return p.string();
+  return "";
+}
 }  // namespace
 
 int main(int argc, char** argv) {
+  // library, search, batch and report are Python (Dask, the databases' drivers): this process becomes it
+  if (argc >= 2) {
+    const std::string sub = argv[1];
+    if (sub == "library" || sub == "search" || sub == "batch" || sub == "report") {
+      const std::string prog = library_program();
+      if (prog.empty()) {
+        std::fprintf(stderr, "featureextract %s: the library program fe_library.py is missing (FE_LIBRARY_PROGRAM names no file, "
+                             "or it is not next to the featureextract executable)\n", sub.c_str());
+        return 4;
+      }
+      std::vector<char*> args{const_cast<char*>("/usr/bin/python3"), const_cast<char*>(prog.c_str())};
+      for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+      args.push_back(nullptr);
+      execv(args[0], args.data());
+      std::fprintf(stderr, "featureextract %s: cannot start /usr/bin/python3: %s\n", sub.c_str(), std::strerror(errno));
+      return 4;
+    }
+  }
   CLI::App app{"FeatureExtract: find every region of a target CAD part or mesh that is similar to a reference feature\n"
                "(Takashima & Kanai's shape-index + multi-radius SHOT method, RANSAC projective transform)."};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("featureextract ") + FE_VERSION);
   app.footer(param_help());
   auto* ex = app.add_subcommand("extract", "find the instances of REF in TGT and write them as JSON");
   auto* me = app.add_subcommand("mesh", "find the instances of a reference feature folder's geometry in TGT and place its FE "
                                         "mesh on each (OUT_DIR/instance_NN.inp/.msh/.feature.json, OUT_DIR/result.json)");
+  // listed for --help; run by fe_library.py (above)
+  for (const auto& [name, what] : std::vector<std::pair<std::string, std::string>>{
+           {"library", "a folder of reference features: library add LIB --from PART --faces 12,13 --name NAME | list LIB | check LIB"},
+           {"search", "every instance of every library feature on one part: search --library LIB --target PART --output OUT.json"},
+           {"batch", "search every part of a vault on Dask into SQLite/PostgreSQL: batch --library LIB --parts 'vault/**/*.step' --db results.sqlite"},
+           {"report", "an HTML page and CSV of a batch database: report --db results.sqlite --output report.html"}})
+    app.add_subcommand(name, what)->allow_extras();
   auto* mp = app.add_subcommand("mesh-part", "one FE mesh of the whole part: every instance of every feature carries the "
                                              "feature's mesh, the rest is meshed by gmsh, conforming (OUT_DIR/part.inp, "
                                              "part.msh, analysis.inp, mesh_part.json)");

@@ -93,7 +93,7 @@ class Cli(unittest.TestCase):
                 r = subprocess.run([EXE, "extract", "-q", "-r", ref, "-t", tgt, "-o", self.out], capture_output=True,
                                    text=True, timeout=120)  # a hang guard, not a speed goal
                 self.assert_input_error(r, bad)
-        rib = os.path.join(ROOT, "Resources", "features", "rib", "geometry.step")
+        rib = os.path.join(ROOT, "Resources", "library", "rib", "geometry.step")
         for name, why in [("feature_name_number", '"name" must be a string'), ("feature_geometry_name_300chars", "File name too long")]:
             with self.subTest(name):
                 out_dir = os.path.join(self.dir, name)
@@ -113,7 +113,7 @@ class Cli(unittest.TestCase):
                 self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
         for value in ["nan", "inf", "-1", "0"]:
             with self.subTest("--max-projection " + value):
-                r = run("mesh", "-q", "--feature", os.path.join(ROOT, "Resources", "features", "rib"), "-t", TGT,
+                r = run("mesh", "-q", "--feature", os.path.join(ROOT, "Resources", "library", "rib"), "-t", TGT,
                         "-o", os.path.join(self.dir, "m"), "--max-projection", value)
                 self.assertEqual(r.returncode, 2, r.stderr)
                 self.assertIn("--max-projection", r.stderr)

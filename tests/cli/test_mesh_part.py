@@ -16,7 +16,7 @@ sys.path.insert(0, os.path.join(ROOT, "bench"))
 import mesh_part  # noqa: E402  (bench/mesh_part.py)
 
 PLATE = os.path.join(MODELS, "ribs_bosses.step")
-FEATURES = [os.path.join(ROOT, "Resources", "features", f) for f in ("rib", "boss")]
+FEATURES = [os.path.join(ROOT, "Resources", "library", f) for f in ("rib", "boss")]
 
 
 class MeshPart(unittest.TestCase):

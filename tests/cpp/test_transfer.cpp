@@ -1,7 +1,7 @@
 // Issue 5: the surface refinement recovers a known projective map, axisymmetric features (bosses)
 // are found with a clean symmetric fit, and a reference feature's FE mesh transferred onto every
 // instance lies on the target surface without inverted elements. Models from FE_MODELS (generated
-// with --suite), feature folders from Resources/features (or FE_FEATURES).
+// with --suite), feature folders from Resources/library (or FE_FEATURES).
 #include "featureextract/extract.h"
 #include "featureextract/geometry.h"
 #include "featureextract/io.h"

@@ -159,7 +159,7 @@ class App_(unittest.TestCase):
     def test_feature_meshes_placed_saved_and_reopened(self):
         """Issue 5: a reference feature folder's FE mesh on every boss, as FEM mesh objects with their
         quality, saved and restored; a bad folder changes nothing."""
-        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "library")
         part = self.doc.addObject("Part::Feature", "Bosses")
         part.Shape = Part.read(os.path.join(MODELS, "suite", "bosses.step"))
         self.doc.recompute()
@@ -198,7 +198,7 @@ class App_(unittest.TestCase):
         """Issue 12: the whole plate meshed with the rib and boss rules (mesh-part in a child process), a
         CalculiX analysis set up in the document, solved by FreeCAD's own ccx tools; a failure changes
         nothing."""
-        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+        features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "library")
         before = sorted(o.Name for o in self.doc.Objects)
         with self.assertRaises(api.FeatureExtractError) as err:
             api.mesh_part(self.part, [os.path.join(features, "no_such_feature")])

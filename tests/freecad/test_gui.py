@@ -247,7 +247,7 @@ def main():
     doc2.recompute()
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(bosses)
-    features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "features")
+    features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "library")
     commands.PlaceMesh().Activated(feature_dir=os.path.join(features, "boss"))
     check(commands.PlaceMesh.running is not None, "mesh placement runs in the background")
     ticks = wait_for(lambda: commands.PlaceMesh.running is None, 120)

@@ -198,7 +198,7 @@ def test_prepared_target_reuses_its_descriptors(ref, tgt):
 
 def test_feature_folder_and_mesh_transfer(tmp_path):
     """Issue 5 from Python: a feature folder, its mesh placed on every boss, written as .inp and .msh."""
-    features = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "Resources", "features")
+    features = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "Resources", "library")
     feature = fx.read_feature(os.path.join(features, "boss"))
     assert feature.mesh.num_elements == 228 and "BOLT_RIGID" in feature.mesh.node_sets
     ref = fx.read_shape(feature.geometry_path)

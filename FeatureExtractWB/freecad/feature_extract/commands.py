@@ -194,7 +194,7 @@ class PlaceMesh:
         if feature_dir is None:
             feature_dir = QtGui.QFileDialog.getExistingDirectory(
                 Gui.getMainWindow(), translate("FeatureExtract", "Reference feature folder (with feature.json)"),
-                os.path.join(REPO, "Resources", "features"))
+                os.path.join(REPO, "Resources", "library"))
             if not feature_dir:
                 return
         try:
@@ -262,7 +262,7 @@ class MeshPart:
         if folder is None:
             folder = QtGui.QFileDialog.getExistingDirectory(
                 Gui.getMainWindow(), translate("FeatureExtract", "A feature folder, or a folder of feature folders"),
-                os.path.join(REPO, "Resources", "features"))
+                os.path.join(REPO, "Resources", "library"))
             if not folder:
                 return
         dirs = self.feature_folders(folder) if os.path.isdir(folder) else []
