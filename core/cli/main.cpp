@@ -115,16 +115,19 @@ nlohmann::ordered_json quality(const fe::QualitySummary& q) {
           {"median_aspect_ratio", num(q.median_aspect_ratio)}, {"min_angle_deg", num(q.min_angle_deg)}};
 }
 
-// The mesher program (core/mesher/fe_gmsh_rest.py): $FE_GMSH_REST, else next to this executable, else
-// in ../share/featureextract beside it (an installed tree).
-std::string mesher_path() {
+// A helper program of the CLI: the file $env names, else `name` next to this executable, else in
+// ../share/featureextract beside it (an installed tree); "" when there is none.
+std::string helper_program(const char* env, const char* name) {
   std::error_code ec;
-  if (const char* e = std::getenv("FE_GMSH_REST"); e && *e) return std::filesystem::is_regular_file(e, ec) ? e : "";
+  if (const char* e = std::getenv(env); e && *e) return std::filesystem::is_regular_file(e, ec) ? e : "";
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  for (const auto& p : {exe.parent_path() / "fe_gmsh_rest.py", exe.parent_path() / ".." / "share" / "featureextract" / "fe_gmsh_rest.py"})
+  for (const auto& p : {exe.parent_path() / name, exe.parent_path() / ".." / "share" / "featureextract" / name})
     if (std::filesystem::exists(p, ec)) return p.string();
   return "";
 }
+
+// The mesher program (core/mesher/fe_gmsh_rest.py).
+std::string mesher_path() { return helper_program("FE_GMSH_REST", "fe_gmsh_rest.py"); }
 
 // Runs argv (no shell), stderr to err_path; returns the exit status, -1 if it could not start or was
 // killed by a signal.
@@ -428,15 +431,8 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   }
   return 0;
 }
-// The library program (core/library/fe_library.py: library, search, batch, report), found as the mesher is.
-std::string library_program() {
-  std::error_code ec;
-  if (const char* e = std::getenv("FE_LIBRARY_PROGRAM"); e && *e) return std::filesystem::is_regular_file(e, ec) ? e : "";
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  for (const auto& p : {exe.parent_path() / "fe_library.py", exe.parent_path() / ".." / "share" / "featureextract" / "fe_library.py"})
-    if (std::filesystem::exists(p, ec)) return p.string();
-  return "";
-}
+// The library program (core/library/fe_library.py: library, search, batch, report).
+std::string library_program() { return helper_program("FE_LIBRARY_PROGRAM", "fe_library.py"); }
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -7,9 +7,10 @@ Tables (version 1):
 - features(id, name, hash, class): a library feature by content hash (feature.json and its files).
 - runs(id, started, finished, params, params_hash, library_hash, version, parts, searched, errors):
   one `batch` invocation.
-- results(id, run_id, part_id, library_hash, params_hash, ok, error, seconds): one part searched
-  with one library and one set of parameters, at most once (UNIQUE(part_id, library_hash,
-  params_hash)); an unreadable part is a row with ok = 0 and its one-line error.
+- results(id, run_id, part_id, library_hash, params_hash, ok, error, notes, seconds): one part
+  searched with one library and one set of parameters, at most once (UNIQUE(part_id, library_hash,
+  params_hash)); an unreadable part is a row with ok = 0 and its one-line error; `notes` names the
+  features that could not be searched on a readable part (one line each, e.g. larger than the part).
 - matches(id, result_id, feature_id, score, rms_error, scale, mirrored, faces, transform): one
   instance (faces and the 4x4 transform as JSON text).
 A part's result row and its matches are written in one transaction, so a batch killed at any
@@ -31,7 +32,7 @@ MIGRATIONS = [
         "CREATE TABLE runs (id {pk}, started TEXT NOT NULL, finished TEXT, params TEXT NOT NULL, params_hash TEXT NOT NULL, "
         "library_hash TEXT NOT NULL, version TEXT, parts INTEGER, searched INTEGER, errors INTEGER)",
         "CREATE TABLE results (id {pk}, run_id INTEGER NOT NULL REFERENCES runs(id), part_id INTEGER NOT NULL REFERENCES parts(id), "
-        "library_hash TEXT NOT NULL, params_hash TEXT NOT NULL, ok INTEGER NOT NULL, error TEXT, seconds REAL, "
+        "library_hash TEXT NOT NULL, params_hash TEXT NOT NULL, ok INTEGER NOT NULL, error TEXT, notes TEXT, seconds REAL, "
         "UNIQUE (part_id, library_hash, params_hash))",
         "CREATE TABLE matches (id {pk}, result_id INTEGER NOT NULL REFERENCES results(id), feature_id INTEGER NOT NULL REFERENCES features(id), "
         "score REAL, rms_error REAL, scale REAL, mirrored INTEGER, faces TEXT, transform TEXT)",
@@ -162,9 +163,12 @@ class Db:
             else:
                 part_id = self.insert("INSERT INTO parts (path, hash, faces, triangles) VALUES (?, ?, ?, ?)",
                                       (path, part_hash, tgt.get("faces"), tgt.get("triangles")))
-            result_id = self.insert("INSERT INTO results (run_id, part_id, library_hash, params_hash, ok, error, seconds) "
-                                    "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                                    (run_id, part_id, library_hash, params_hash, 1 if r["ok"] else 0, r.get("error"), float(r.get("seconds", 0.0))))
+            # features that could not be searched on this part (larger than it, say), one line each
+            notes = "\n".join(f"{f['name']}: {f['error']}" for f in res.get("features", []) if f.get("error")) or None
+            result_id = self.insert("INSERT INTO results (run_id, part_id, library_hash, params_hash, ok, error, notes, seconds) "
+                                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                                    (run_id, part_id, library_hash, params_hash, 1 if r["ok"] else 0, r.get("error"), notes,
+                                     float(r.get("seconds", 0.0))))
             n = 0
             for f in res.get("features", []):
                 fid = self.execute("SELECT id FROM features WHERE hash = ?", (f["hash"],)).fetchone()
@@ -189,18 +193,18 @@ class Db:
 
     def summary(self):
         """The newest result of each part: path, counts per feature, error, seconds."""
-        cur = self.execute("SELECT r.id, p.path, r.ok, r.error, r.seconds FROM results r JOIN parts p ON p.id = r.part_id "
+        cur = self.execute("SELECT r.id, p.path, r.ok, r.error, r.seconds, r.notes FROM results r JOIN parts p ON p.id = r.part_id "
                            "ORDER BY p.path, r.id")
         latest = {}
-        for rid, path, ok, err, sec in cur.fetchall():
-            latest[path] = (rid, ok, err, sec)
+        for rid, path, ok, err, sec, notes in cur.fetchall():
+            latest[path] = (rid, ok, err, sec, notes)
         out = []
-        for path, (rid, ok, err, sec) in sorted(latest.items()):
+        for path, (rid, ok, err, sec, notes) in sorted(latest.items()):
             counts = {}
             for name, n in self.execute("SELECT f.name, COUNT(*) FROM matches m JOIN features f ON f.id = m.feature_id "
                                         "WHERE m.result_id = ? GROUP BY f.name", (rid,)).fetchall():
                 counts[name] = int(n)
-            out.append({"path": path, "ok": bool(ok), "error": err or "", "seconds": float(sec or 0), "counts": counts})
+            out.append({"path": path, "ok": bool(ok), "error": err or "", "notes": notes or "", "seconds": float(sec or 0), "counts": counts})
         return out
 
     def matches(self):

@@ -308,19 +308,37 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
         except ValueError as e:
             raise UserError(str(e))
     t0 = time.monotonic()
-    # one tessellation of the target, fine enough for the smallest feature
-    smallest = min(refs, key=lambda r: r.diagonal)
-    try:
-        mesh = fxm.read_target(target, smallest)
-    except ValueError as e:
-        raise UserError(str(e))
-    prepared = fxm.PreparedTarget(mesh)
-    out = {"target": {"path": os.path.abspath(target), "faces": int(mesh.num_faces), "triangles": int(mesh.triangles.shape[0])},
+    # The target is tessellated once per size class of features (sizes within a factor of 2 share one
+    # tessellation, as fine as the class's smallest feature needs), not for the library's smallest
+    # feature: a 10 mm slot must not make a 1 m housing's mesh a hundred times finer for every feature.
+    # Each tessellation keeps its descriptions for reuse (PreparedTarget).
+    import math
+    current = {"key": None, "target": None}
+    made = {"tessellations": 0, "descriptions": 0}
+
+    def prepared_for(ref):
+        k = math.floor(math.log2(max(ref.diagonal, 1e-9)))
+        if current["key"] != k:  # a new size class: the last one's descriptions are let go (memory)
+            if current["target"] is not None:
+                made["descriptions"] += current["target"].descriptions_built
+            rel, _ = fxm.tessellation_for_feature(ref.diagonal)
+            try:
+                mesh = fxm.read_shape(target, relative_deflection=rel, absolute_deflection=rel * 2.0 ** k)
+            except ValueError as e:
+                raise UserError(str(e))
+            current["key"], current["target"] = k, fxm.PreparedTarget(mesh)
+            made["tessellations"] += 1
+        return current["target"]
+    order = sorted(range(len(feats)), key=lambda i: -refs[i].diagonal)  # the coarsest tessellation first
+    first = prepared_for(refs[order[0]]).mesh
+    out = {"target": {"path": os.path.abspath(target), "faces": int(first.num_faces), "triangles": int(first.triangles.shape[0])},
            "library": {"path": os.path.abspath(library), "hash": library_hash(feats), "features": len(feats)},
            "features": [], "overlaps": []}
-    for k, (f, ref) in enumerate(zip(feats, refs)):
+    entries = [None] * len(feats)
+    for n, i in enumerate(order):
+        f, ref = feats[i], refs[i]
         if progress:
-            progress(k, len(feats), f["name"])
+            progress(n, len(feats), f["name"])
         entry = {"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "matches": [], "error": None}
         t1 = time.monotonic()
         try:
@@ -330,7 +348,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
                 if left <= 0:
                     raise fxm.TimeLimitError(f"{target}: time limit of {time_limit:g} s reached before {f['name']}")
                 p.time_limit = left
-            res = json.loads(prepared.extract(ref, p).to_json())
+            res = json.loads(prepared_for(ref).extract(ref, p).to_json())
             entry["matches"] = res.get("matches", [])
             entry["params"] = res.get("params")
         except fxm.TimeLimitError:
@@ -338,9 +356,11 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
         except ValueError as e:  # InputError: this feature cannot be searched; the others go on
             entry["error"] = " ".join(str(e).split())
         entry["seconds"] = round(time.monotonic() - t1, 3)
-        out["features"].append(entry)
+        entries[i] = entry
+    out["features"] = entries  # in the library's order
     out["overlaps"] = overlaps(out["features"])
-    out["descriptions_built"] = prepared.descriptions_built
+    out["tessellations"] = made["tessellations"]
+    out["descriptions_built"] = made["descriptions"] + current["target"].descriptions_built
     out["seconds"] = round(time.monotonic() - t0, 3)
     return out
 
@@ -418,7 +438,7 @@ def parse_sets(items):
 # ---------------------------------------------------------------------------------------------
 # batch over a vault on Dask, into a database
 
-def run_part(path, library, overrides, timeout):
+def run_part(path, library, overrides, timeout, threads=0):
     """One Dask task: `featureextract search` on one part, in its own process (a part that crashes a
     reader or hangs costs that process, not the worker). Returns a plain dict."""
     with tempfile.TemporaryDirectory(prefix="fe_batch_") as tmp:
@@ -426,6 +446,8 @@ def run_part(path, library, overrides, timeout):
         cmd = [sys.executable, os.path.abspath(__file__), "search", "--library", library, "--target", path, "--output", out, "--quiet"]
         for k, v in sorted(overrides.items()):
             cmd += ["--set", f"{k}={json.dumps(v)}"]
+        if threads > 0:  # the same result for any thread count: not a parameter of the result
+            cmd += ["--set", f"threads={threads}"]
         if timeout:
             cmd += ["--time-limit", repr(timeout)]
         t0 = time.monotonic()
@@ -433,7 +455,7 @@ def run_part(path, library, overrides, timeout):
             r = subprocess.run(cmd, capture_output=True, text=True, timeout=(timeout * 1.5 + 60) if timeout else None)
         except subprocess.TimeoutExpired:
             return {"path": path, "ok": False, "error": f"{path}: no answer within {timeout * 1.5 + 60:g} s", "seconds": time.monotonic() - t0}
-        if r.returncode == 0 and os.path.isfile(out):
+        if r.returncode in (0, EXIT_INPUT) and os.path.isfile(out):  # read and searched (exit 3: no feature could be)
             with open(out) as f:
                 res = json.load(f)
             return {"path": path, "ok": True, "result": res, "seconds": time.monotonic() - t0}
@@ -466,6 +488,10 @@ def batch_cmd(a):
     parts = expand_parts(a.parts)
     overrides = parse_sets(a.set)
     overrides["seed"] = a.seed
+    if "threads" in overrides:
+        a.threads = int(overrides.pop("threads"))
+    if a.threads < 0:
+        raise UserError(f"--threads {a.threads}: must be 0 (automatic) or more", EXIT_USAGE)
     db = fe_db.connect(a.db)
     lib_hash = library_hash(feats)
     params_json = json.dumps(overrides, sort_keys=True)
@@ -501,7 +527,7 @@ def batch_cmd(a):
 
     if todo and a.serial:  # one part after the other in this process's children: the reference for Dask's rows
         for p in todo:
-            record(run_part(p, os.path.abspath(a.library), overrides, a.time_limit))
+            record(run_part(p, os.path.abspath(a.library), overrides, a.time_limit, a.threads))
     elif todo:
         from dask.distributed import Client, LocalCluster, as_completed
         cluster = None
@@ -509,11 +535,13 @@ def batch_cmd(a):
             client = Client(a.scheduler, timeout="20s")
         else:
             n = a.workers or max(1, os.cpu_count() or 1)
+            if not a.threads:  # the cores shared out among the local workers (a search uses all it is given)
+                a.threads = max(1, (os.cpu_count() or 1) // n)
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                    silence_logs=40)
             client = Client(cluster)
         try:
-            futures = [client.submit(run_part, p, os.path.abspath(a.library), overrides, a.time_limit, key=f"part-{hashes[p][:16]}-{k}",
+            futures = [client.submit(run_part, p, os.path.abspath(a.library), overrides, a.time_limit, a.threads, key=f"part-{hashes[p][:16]}-{k}",
                                      retries=2, pure=False) for k, p in enumerate(todo)]
             for fut in as_completed(futures):
                 try:
@@ -562,10 +590,11 @@ def report_cmd(a):
            "td.n{text-align:right}.err{color:#a00}</style></head><body>",
            f"<h1>FeatureExtract: {len(rows)} parts</h1>",
            f"<p>{sum(1 for r in rows if r['error'])} parts with errors; {len(matches)} instances.</p>",
-           "<table><tr><th>part</th>" + "".join(f"<th>{html.escape(f)}</th>" for f in feats) + "<th>seconds</th><th>error</th></tr>"]
+           "<table><tr><th>part</th>" + "".join(f"<th>{html.escape(f)}</th>" for f in feats) + "<th>seconds</th><th>error, or features not searched</th></tr>"]
     for r in rows:
         cells = "".join(f"<td class='n'>{r['counts'].get(f, 0)}</td>" for f in feats)
-        err = f"<td class='err'>{html.escape(r['error'])}</td>" if r["error"] else "<td></td>"
+        err = (f"<td class='err'>{html.escape(r['error'])}</td>" if r["error"]
+               else f"<td>{'<br>'.join(html.escape(x) for x in r['notes'].splitlines())}</td>")
         out.append(f"<tr><td>{html.escape(r['path'])}</td>{cells}<td class='n'>{r['seconds']:.1f}</td>{err}</tr>")
     out.append("</table>")
     out.append("<h2>Totals per feature</h2><table><tr><th>feature</th><th>instances</th><th>parts</th></tr>")
@@ -620,6 +649,8 @@ def parser():
     ba.add_argument("--scheduler", default="", help="tcp://HOST:8786 of a running `dask scheduler`")
     ba.add_argument("--workers", type=int, default=0, help="local worker processes (default: one per core)")
     ba.add_argument("--serial", action="store_true", help="no Dask: one part after the other (for comparison)")
+    ba.add_argument("--threads", type=int, default=0,
+                    help="threads per search (default: the cores shared out among local workers; all cores on a --scheduler cluster)")
     ba.add_argument("--seed", type=int, default=1)
     ba.add_argument("--time-limit", type=float, default=600.0, help="per part, seconds")
     ba.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")

@@ -15,7 +15,10 @@ import unittest
 
 EXE, MODELS = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-LIB = os.path.join(ROOT, "Resources", "library")
+SHIPPED = os.path.join(ROOT, "Resources", "library")
+LIB = tempfile.mkdtemp(prefix="fe_lib_")  # the shipped rib and boss (the example plate's features)
+for _name in ("rib", "boss"):
+    shutil.copytree(os.path.join(SHIPPED, _name), os.path.join(LIB, _name))
 PLATE = os.path.join(MODELS, "ribs_bosses.step")
 BAD = os.path.join(ROOT, "..", "shared", "data", "bad-input")
 
@@ -120,15 +123,52 @@ class Library(unittest.TestCase):
 
 def db_rows(path):
     """What a batch stored, without ids, times and run numbers: per part (path, ok, error) and per
-    instance (path, feature, score, faces, transform), sorted."""
-    con = sqlite3.connect(path)
-    results = sorted(con.execute("SELECT p.path, r.ok, r.error FROM results r JOIN parts p ON p.id = r.part_id").fetchall())
-    matches = sorted(con.execute("SELECT p.path, f.name, m.score, m.faces, m.transform, m.mirrored FROM matches m "
-                                 "JOIN results r ON r.id = m.result_id JOIN parts p ON p.id = r.part_id "
-                                 "JOIN features f ON f.id = m.feature_id").fetchall())
-    per_part = con.execute("SELECT part_id, COUNT(*) FROM results GROUP BY part_id HAVING COUNT(*) > 1").fetchall()
+    instance (path, feature, score, faces, transform), sorted. SQLite file or postgresql:// URL."""
+    if path.startswith("postgresql://"):
+        import psycopg2
+        con = psycopg2.connect(path)
+    else:
+        con = sqlite3.connect(path)
+
+    def q(s):
+        cur = con.cursor()
+        cur.execute(s)
+        return [tuple(r) for r in cur.fetchall()]
+    results = sorted(q("SELECT p.path, r.ok, r.error FROM results r JOIN parts p ON p.id = r.part_id"))
+    matches = sorted(q("SELECT p.path, f.name, m.score, m.faces, m.transform, m.mirrored FROM matches m "
+                       "JOIN results r ON r.id = m.result_id JOIN parts p ON p.id = r.part_id "
+                       "JOIN features f ON f.id = m.feature_id"))
+    per_part = q("SELECT part_id, COUNT(*) FROM results GROUP BY part_id HAVING COUNT(*) > 1")
     con.close()
     return results, matches, per_part
+
+
+def start_postgres(folder):
+    """A PostgreSQL server of its own in `folder` (initdb, pg_ctl; as the postgres user when run as
+    root, which PostgreSQL refuses to be), on a free port. Returns (URL, stop())."""
+    import glob
+    import socket
+    bins = sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb"))
+    if not bins:
+        raise AssertionError("PostgreSQL is not installed (apt-get install postgresql): setup.sh installs it")
+    bindir = os.path.dirname(bins[-1])
+    as_user = ["runuser", "-u", "postgres", "--"] if os.geteuid() == 0 else []
+    if os.geteuid() == 0:
+        shutil.chown(folder, "postgres")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    data = os.path.join(folder, "data")
+    subprocess.run(as_user + [os.path.join(bindir, "initdb"), "-D", data, "-A", "trust", "-U", "fe"], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(as_user + [os.path.join(bindir, "pg_ctl"), "-D", data, "-o", f"-k {folder} -p {port} -h 127.0.0.1",
+                              "-l", os.path.join(folder, "log"), "-w", "start"], check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(as_user + [os.path.join(bindir, "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", "fe", "fe"], check=True)
+
+    def stop():
+        subprocess.run(as_user + [os.path.join(bindir, "pg_ctl"), "-D", data, "-m", "immediate", "stop"],
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return f"postgresql://fe@127.0.0.1:{port}/fe", stop
 
 
 class Batch(unittest.TestCase):
@@ -235,6 +275,40 @@ class Batch(unittest.TestCase):
         self.assertIn(f"{len(results)} already in", r.stderr)
         self.assertEqual(db_rows(db), self.reference)
 
+    def test_postgresql_gets_the_rows_sqlite_gets(self):
+        folder = tempfile.mkdtemp(prefix="fe_pg_")
+        url, stop = start_postgres(folder)
+        try:
+            r = fx("batch", "--library", LIB, "--parts", self.pattern, "--db", url, "--workers", "2")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertEqual(db_rows(url), self.reference)
+            r = fx("batch", "--library", LIB, "--parts", self.pattern, "--db", url, "--serial")
+            self.assertIn("5 already in", r.stderr)
+            self.assertEqual(db_rows(url), self.reference)
+            r = fx("report", "--db", url, "--output", os.path.join(folder, "r.html"))
+            self.assertEqual(r.returncode, 0, r.stderr)
+        finally:
+            stop()
+            shutil.rmtree(folder, ignore_errors=True)
+        r = fx("batch", "--library", LIB, "--parts", self.pattern, "--db", url, "--serial")  # the server is gone
+        self.assertEqual(r.returncode, 3)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("cannot open the database", r.stderr)
+
+    def test_a_part_smaller_than_every_feature_is_searched_with_notes_not_an_error(self):
+        vault = os.path.join(self.dir, "small")
+        os.makedirs(vault)
+        shutil.copy(os.path.join(ROOT, "..", "shared", "data", "mfcad", "5-5-5-5-12-23.step"), os.path.join(vault, "slots.step"))
+        db = os.path.join(self.dir, "small.sqlite")
+        r = fx("batch", "--library", LIB, "--parts", os.path.join(vault, "*.step"), "--db", db, "--serial")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        con = sqlite3.connect(db)
+        ok, error, notes = con.execute("SELECT ok, error, notes FROM results").fetchone()
+        con.close()
+        self.assertEqual((ok, error), (1, None))
+        self.assertEqual(len(notes.splitlines()), 2, notes)  # the rib and the boss, each larger than the part
+        self.assertIn("larger", notes)
+
     def test_report_lists_every_part_and_feature(self):
         html = os.path.join(self.dir, "report.html")
         csv = os.path.join(self.dir, "matches.csv")
@@ -252,5 +326,18 @@ class Batch(unittest.TestCase):
         self.assertIn("none.sqlite", r.stderr)
 
 
+class ShippedLibrary(unittest.TestCase):
+    def test_every_shipped_feature_is_readable_and_listed(self):
+        r = fx("library", "check", SHIPPED)
+        self.assertEqual(r.returncode, 0, r.stderr + r.stdout)
+        r = fx("library", "list", SHIPPED, "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        got = {x["class"] for x in json.loads(r.stdout)}
+        self.assertLessEqual({"rib", "boss", "lug", "ear", "hole", "slot"}, got)
+
+
 if __name__ == "__main__":
-    unittest.main(argv=sys.argv[:1], verbosity=2)
+    try:
+        unittest.main(argv=sys.argv[:1], verbosity=2)
+    finally:
+        shutil.rmtree(LIB, ignore_errors=True)
