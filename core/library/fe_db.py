@@ -75,7 +75,7 @@ class Db:
         except self.errors as e:
             raise DbError(f"{url}: {e}")
 
-    # ? placeholders in, the driver's out
+    # SQL is written with SQLite's ? placeholders; psycopg2 takes %s
     def sql(self, s):
         return s if self.kind == "sqlite" else s.replace("?", "%s")
 
@@ -149,7 +149,7 @@ class Db:
         self.con.commit()
         return i
 
-    def store(self, run_id, path, part_hash, library_hash, params_hash, r, features):
+    def store(self, run_id, path, part_hash, library_hash, params_hash, r):
         """One part's outcome, in one transaction. Returns the number of instances stored (0 when the
         row was there already: a second writer, or a retried task)."""
         try:
@@ -213,7 +213,3 @@ class Db:
                            "JOIN features f ON f.id = m.feature_id ORDER BY p.path, f.name, m.id")
         return [{"path": a, "feature": b, "score": c, "rms_error": d, "scale": e, "mirrored": bool(g), "faces": h, "transform": t}
                 for a, b, c, d, e, g, h, t in cur.fetchall()]
-
-    def rows(self, table):
-        """Every row of a table without its ids (for comparing two databases)."""
-        return self.execute(f"SELECT * FROM {table}").fetchall()

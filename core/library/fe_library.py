@@ -378,13 +378,13 @@ def overlaps(features):
     for a in range(len(claims)):
         if a in seen:
             continue
-        group, todo = {a}, [a]
-        while todo:
-            x = todo.pop()
+        group, frontier = {a}, [a]  # the claims linked to claim a through shared faces
+        while frontier:
+            x = frontier.pop()
             for b in range(len(claims)):
                 if b not in group and claims[b]["feature"] != claims[x]["feature"] and claims[b]["faces"] & claims[x]["faces"]:
                     group.add(b)
-                    todo.append(b)
+                    frontier.append(b)
         seen |= group
         if len({claims[g]["feature"] for g in group}) > 1:
             ranked = sorted(group, key=lambda g: (-claims[g]["score"], claims[g]["feature"], claims[g]["match"]))
@@ -498,37 +498,37 @@ def batch_cmd(a):
     params_hash = hashlib.sha256((params_json + "|" + str(a.time_limit)).encode()).hexdigest()
     version = program_version()
     # incremental: a part whose content, library and parameters are in the database already is skipped
-    todo, skipped = [], 0
+    to_search, skipped = [], 0
     hashes = {}
     for p in parts:
         hashes[p] = file_hash(p).hexdigest()
         if db.has_result(p, hashes[p], lib_hash, params_hash):
             skipped += 1
         else:
-            todo.append(p)
+            to_search.append(p)
     run_id = db.start_run(params_json, params_hash, lib_hash, version, len(parts))
     for f in feats:
         db.feature_id(f["name"], f["hash"], f["class"])
     say = (lambda *x: None) if a.quiet else (lambda s: print(f"{PROG} batch: {s}", file=sys.stderr, flush=True))
-    say(f"{len(parts)} parts, {skipped} already in {a.db}, {len(todo)} to search with {len(feats)} features")
+    say(f"{len(parts)} parts, {skipped} already in {a.db}, {len(to_search)} to search with {len(feats)} features")
     t0 = time.monotonic()
     done = errors = found = 0
     def record(r):
         nonlocal done, errors, found
         p = r["path"]
-        found += db.store(run_id, p, hashes[p], lib_hash, params_hash, r, {f["name"]: f for f in feats})
+        found += db.store(run_id, p, hashes[p], lib_hash, params_hash, r)
         done += 1
         errors += 0 if r["ok"] else 1
         el = time.monotonic() - t0
         rate = done / el * 60 if el > 0 else 0.0
-        eta = (len(todo) - done) / (done / el) if done and el > 0 else 0.0
-        say(f"{done}/{len(todo)} parts, {rate:.1f} parts/min, ETA {eta:.0f} s, {errors} errors, {found} instances"
+        eta = (len(to_search) - done) / (done / el) if done and el > 0 else 0.0
+        say(f"{done}/{len(to_search)} parts, {rate:.1f} parts/min, ETA {eta:.0f} s, {errors} errors, {found} instances"
             + ("" if r["ok"] else f" | {r['error']}"))
 
-    if todo and a.serial:  # one part after the other in this process's children: the reference for Dask's rows
-        for p in todo:
+    if to_search and a.serial:  # one part after the other in this process's children: the reference for Dask's rows
+        for p in to_search:
             record(run_part(p, os.path.abspath(a.library), overrides, a.time_limit, a.threads))
-    elif todo:
+    elif to_search:
         from dask.distributed import Client, LocalCluster, as_completed
         cluster = None
         if a.scheduler:
@@ -542,12 +542,12 @@ def batch_cmd(a):
             client = Client(cluster)
         try:
             futures = [client.submit(run_part, p, os.path.abspath(a.library), overrides, a.time_limit, a.threads, key=f"part-{hashes[p][:16]}-{k}",
-                                     retries=2, pure=False) for k, p in enumerate(todo)]
+                                     retries=2, pure=False) for k, p in enumerate(to_search)]
             for fut in as_completed(futures):
                 try:
                     r = fut.result()
                 except Exception as e:  # a worker died on it three times (KilledWorker) or the task raised
-                    r = {"path": todo[futures.index(fut)], "ok": False, "error": " ".join(f"{type(e).__name__}: {e}".split()), "seconds": 0.0}
+                    r = {"path": to_search[futures.index(fut)], "ok": False, "error": " ".join(f"{type(e).__name__}: {e}".split()), "seconds": 0.0}
                 record(r)
         finally:
             client.close()

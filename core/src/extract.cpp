@@ -268,16 +268,21 @@ namespace {
 
 // Distance from p to the sampled surface: point-to-plane at the nearest dense sample, with the
 // tangential offset beyond one sample spacing added back (so points off the edge of a surface count).
-double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int* nearest = nullptr) {
-  double d2;
-  const int j = t.dense_tree->nearest(p, &d2);
-  if (nearest) *nearest = j;
-  if (j < 0 || !std::isfinite(d2)) return INFINITY;
+// That distance measured at dense sample j, which lies d2 (squared) from p.
+double distance_at_sample(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int j, double d2) {
   const Eigen::Vector3d q = t.dense.points.row(j), n = t.dense_normals.row(j);
   const double dn = std::abs((p - q).dot(n));
   const double dt = std::sqrt(std::max(0.0, d2 - dn * dn));
   const double over = std::max(0.0, dt - t.dense_h);
   return std::sqrt(dn * dn + over * over);
+}
+
+double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int* nearest = nullptr) {
+  double d2;
+  const int j = t.dense_tree->nearest(p, &d2);
+  if (nearest) *nearest = j;
+  if (j < 0 || !std::isfinite(d2)) return INFINITY;
+  return distance_at_sample(t, p, j, d2);
 }
 
 // surface_distance where only values below `cap` matter (errors truncated at a penalty): the same
@@ -291,11 +296,7 @@ double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vec
   const int j = t.dense_tree->nearest_within(p, 1.01 * (cap + t.dense_h), &d2);
   if (j < 0) return cap;
   *nearest = j;
-  const Eigen::Vector3d q = t.dense.points.row(j), n = t.dense_normals.row(j);
-  const double dn = std::abs((p - q).dot(n));
-  const double dt = std::sqrt(std::max(0.0, d2 - dn * dn));
-  const double over = std::max(0.0, dt - t.dense_h);
-  return std::sqrt(dn * dn + over * over);
+  return distance_at_sample(t, p, j, d2);
 }
 
 // Axisymmetry of the reference (issue 5): on a surface of revolution every normal line meets the
@@ -704,7 +705,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   };
   // Paper 3.8 (4)-(5): map the reference key points, error to the nearest dense target point;
   // the error of H is the maximum (or error_quantile) over them, divided by the scale of H.
-  std::vector<double> errs;
   // Error of H at evaluation point i, in reference units (divided by the scale s of H): distance to
   // the target surface, or at least `normal_penalty` where the normals disagree; +inf off the target.
   // With `capped`, errors of normal_penalty or more may come back as normal_penalty (for the sums
@@ -772,6 +772,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   // Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile).
   auto quantile_error = [&](const Eigen::Matrix4d& H) -> double {
     double s;
+    std::vector<double> errs;
     if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY, errs)) return INFINITY;
     const std::size_t q = std::min(errs.size() - 1, static_cast<std::size_t>(p.error_quantile * static_cast<double>(errs.size())));
     std::nth_element(errs.begin(), errs.begin() + static_cast<long>(q), errs.end());
