@@ -203,7 +203,7 @@ def main():
     view.fitAll()
     wait_for(lambda: False, 0.3)
     w, h = view.getSize()
-    shot = os.environ.get("FE_SHOT", "gui_screenshot.png")
+    shot = os.environ.get("FE_SHOT", os.path.join(tempfile.gettempdir(), "gui_screenshot.png"))
     view.saveImage(shot, w, h, "White")
     img = QtGui.QImage(shot)
     check(not img.isNull(), f"screenshot saved ({w}x{h})")
@@ -265,7 +265,7 @@ def main():
     view.fitAll()
     wait_for(lambda: False, 0.5)
     w, h = view.getSize()
-    shot = os.environ.get("FE_MESH_SHOT", "gui_mesh_screenshot.png")
+    shot = os.environ.get("FE_MESH_SHOT", os.path.join(tempfile.gettempdir(), "gui_mesh_screenshot.png"))
     view.saveImage(shot, w, h, "White")
     img = QtGui.QImage(shot)
     green = 0
