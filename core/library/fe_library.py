@@ -240,8 +240,12 @@ def rule_text(spec):
 def library_list(a):
     feats = load_library(a.library)
     if a.json:
+        def thumbnail(f):
+            t = f["spec"].get("thumbnail")
+            return os.path.join(f["dir"], t) if isinstance(t, str) and os.path.isfile(os.path.join(f["dir"], t)) else None
         print(json.dumps([{"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "rules": rule_text(f["spec"]),
-                           "search": f["search"]} for f in feats], indent=2))
+                           "description": f["spec"].get("description", "") if isinstance(f["spec"].get("description"), str) else "",
+                           "thumbnail": thumbnail(f), "search": f["search"]} for f in feats], indent=2))
         return 0
     w = max(len(f["name"]) for f in feats)
     for f in feats:
@@ -348,7 +352,8 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
                 if left <= 0:
                     raise fxm.TimeLimitError(f"{target}: time limit of {time_limit:g} s reached before {f['name']}")
                 p.time_limit = left
-            res = json.loads(prepared_for(ref).extract(ref, p).to_json())
+            res = json.loads(prepared_for(ref).extract(ref, p, (lambda stage, fr, n=n, name=f["name"]: progress(n, len(feats), name, stage, fr))
+                                                       if progress else None).to_json())
             entry["matches"] = res.get("matches", [])
             entry["params"] = res.get("params")
         except fxm.TimeLimitError:
@@ -400,9 +405,21 @@ def search_cmd(a):
     if a.seed is not None:
         overrides["seed"] = a.seed
 
-    def progress(k, n, name):
-        if not a.quiet:
+    shown = {"line": None}
+
+    def progress(k, n, name, stage=None, fraction=0.0):
+        """One line per feature, and the engine's stage progress as `extract` prints it
+        (`featureextract: NAME (K of N): STAGE NN%`, what the workbench's progress bar reads)."""
+        if a.quiet:
+            return True
+        if stage is None:
             print(f"{PROG} search: feature {k + 1} of {n}: {name}", file=sys.stderr, flush=True)
+            return True
+        line = f"{PROG}: {name} ({k + 1} of {n}): {stage} {int(100 * min(max(fraction, 0.0), 1.0))}%"
+        if line != shown["line"]:
+            shown["line"] = line
+            print(line, file=sys.stderr, flush=True)
+        return True
     fxm = fx()
     try:
         res = search_part(a.library, a.target, overrides, a.time_limit, progress)

@@ -230,6 +230,36 @@ class App_(unittest.TestCase):
         self.assertGreater(umax, 0)
         self.assertLess(umax, 1e-3)  # 200 N on a steel plate held on its underside: far below a micron
 
+    def test_library_search_groups_per_feature_and_bad_input(self):
+        # issue 13, item 4, headless: a library searched from a macro; one group per feature found
+        import shutil
+        from freecad.feature_extract import library
+        lib = tempfile.mkdtemp(prefix="fe_app_library_")
+        for d in ("rib", "boss"):
+            shutil.copytree(os.path.join(library.SHIPPED, d), os.path.join(lib, d))
+        self.assertEqual(sorted(f["name"] for f in library.features(lib)), ["rib", "screw boss"])
+        before = sorted(o.Name for o in self.doc.Objects)
+        with self.assertRaisesRegex(api.FeatureExtractError, r"'Face999' is not one of its faces"):
+            library.add_faces(self.part, ["Face999"], "x", lib)
+        with self.assertRaisesRegex(api.FeatureExtractError, "needs a name"):
+            library.add_faces(self.part, ["Face1"], "  ", lib)
+        with self.assertRaisesRegex(api.FeatureExtractError, "not a folder"):
+            library.search(self.part, os.path.join(lib, "no_such_library"))
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), before)
+        seen = []
+        groups = library.search(self.part, lib, progress=lambda stage, f: seen.append(f) or True)
+        self.assertEqual(sorted(g.Label for g in groups), ["rib on Part (5)", "screw boss on Part (2)"])
+        self.assertEqual(len(api.results_for(self.part)), 7)
+        self.assertTrue(seen and seen == sorted(seen) and seen[-1] == 1.0, "progress is one fraction that never goes back")
+        for g in groups:
+            self.assertEqual(len({tuple(r.Color) for r in g.Group}), 1)
+            self.assertTrue(all(r.ReferenceText == "library: " + g.LibraryFeature for r in g.Group))
+        # searched again (the cached result): the groups are replaced, not added to
+        again = library.search(self.part, lib)
+        self.assertEqual(len(again), 2)
+        self.assertEqual(len(library.groups_for(self.part)), 2)
+        self.assertEqual(len(api.results_for(self.part)), 7)
+
     def test_bad_input_leaves_the_document_unchanged(self):
         before = sorted(o.Name for o in self.doc.Objects)
         with self.assertRaises(api.FeatureExtractError):

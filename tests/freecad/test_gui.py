@@ -7,24 +7,13 @@ a screenshot. Exits 0 when all checks pass (FreeCAD does not exit by itself)."""
 import os
 import sys
 import tempfile
-import time
-import traceback
 
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what)
-    sys.stdout.flush()
-    if not cond:
-        failures.append(what)
+sys.path.insert(0, os.path.join(os.path.dirname(os.environ["FE_WB"]), "tests", "freecad"))
+from gui_common import check, finish, report_view, use_workbench, wait_for  # noqa: E402
 
 
 def main():
-    sys.path.insert(0, os.environ["FE_WB"])
-    import freecad
-    if os.path.join(os.environ["FE_WB"], "freecad") not in freecad.__path__:
-        freecad.__path__.append(os.path.join(os.environ["FE_WB"], "freecad"))
+    use_workbench()
     import FreeCAD as App
     import FreeCADGui as Gui
     import Part
@@ -40,15 +29,6 @@ def main():
     check(os.path.realpath(api.__file__).startswith(os.path.realpath(os.environ["FE_WB"])),
           f"the workbench under test is {os.environ['FE_WB']} ({api.__file__})")
     commands.INTERACTIVE = False
-
-    def wait_for(cond, seconds):
-        end = time.time() + seconds
-        ticks = 0
-        while not cond() and time.time() < end:
-            QtGui.QApplication.processEvents()
-            time.sleep(0.02)
-            ticks += 1
-        return ticks
 
     doc = App.newDocument("gui_test")
     part = doc.addObject("Part::Feature", "Part")
@@ -280,11 +260,7 @@ def main():
     # save and reopen with results, references and meshes (issue 11): no error line in the report
     # view (the proxies were saved through Python 3.11's default __getstate__, and reopening
     # reassigned Proxy while the document was restoring)
-    report = None
-    for cls in (QtGui.QTextEdit, QtGui.QPlainTextEdit):
-        for w_ in Gui.getMainWindow().findChildren(cls):
-            if "report" in (w_.objectName() or "").lower():
-                report = w_
+    report = report_view()
     check(report is not None, "report view found")
     if report is not None:
         check("FE mesh(es) of boss placed on" in report.toPlainText(), "placing meshes says so in the report view")
@@ -328,11 +304,4 @@ def main():
         check("meshed whole" in report.toPlainText(), "meshing the part says so in the report view")
 
 
-try:
-    main()
-except Exception:
-    traceback.print_exc()
-    failures.append("exception")
-print(f"{0 if failures else 1} passed, {1 if failures else 0} failed: gui")
-sys.stdout.flush()
-os._exit(1 if failures else 0)
+finish("gui", main)

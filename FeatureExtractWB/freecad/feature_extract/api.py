@@ -291,41 +291,60 @@ def _reference_link(reference):
     return None, "shape"
 
 
+def _field(m, key):
+    """A match's field: a core Match's attribute, or a key of a result JSON's match."""
+    return m[key] if isinstance(m, dict) else getattr(m, key)
+
+
+def add_match_objects(target_obj, ref_obj, ref_text, matches, created, color=None):
+    """One FeatureExtractResult object per match (core Matches or result JSON dicts), appended to
+    `created` (the transaction's list), not yet in a group; each in its own color, or all in `color`."""
+    from .objects import ExtractionResult
+    doc = target_obj.Document
+    out = []
+    for i, m in enumerate(matches):
+        obj = doc.addObject("App::FeaturePython", "Similar")
+        created.append(obj)
+        ExtractionResult(obj)
+        obj.Target = target_obj
+        obj.Reference = ref_obj
+        obj.ReferenceText = ref_text
+        obj.Transform = App.Matrix(*[float(x) for row in _field(m, "transform") for x in row])
+        obj.Score = float(_field(m, "score"))
+        obj.MaxError = float(_field(m, "max_error"))
+        obj.RmsError = float(_field(m, "rms_error"))
+        obj.Scale = float(_field(m, "scale"))
+        obj.Center = App.Vector(*[float(x) for x in _field(m, "center")])
+        obj.Faces = [int(f) for f in _field(m, "faces")]
+        obj.Pairs = int(_field(m, "pairs"))
+        obj.Mirrored = bool(_field(m, "mirrored"))
+        obj.Color = color if color is not None else PALETTE[i % len(PALETTE)]
+        if App.GuiUp:
+            from .objects import ViewProviderResult
+            ViewProviderResult(obj.ViewObject)
+        out.append(obj)
+    return out
+
+
+def result_group(doc, created):
+    """The document's "Similar features" group, made (and listed in `created`) if it is not there."""
+    group = doc.getObject(RESULT_GROUP)
+    if group is None:
+        group = doc.addObject("App::DocumentObjectGroup", RESULT_GROUP)
+        created.append(group)
+        group.Label = "Similar features"
+    return group
+
+
 def add_results(target_obj, reference, result):
     """Records a computed result as FeatureExtractResult objects (replacing earlier results for the same
     target and reference), in one transaction; on any error the document is left as it was."""
-    from .objects import ExtractionResult
     doc = target_obj.Document
     ref_obj, ref_text = _reference_link(reference)
     with _changes(doc, "Extract similar features") as created:
-        group = doc.getObject(RESULT_GROUP)
-        if group is None:
-            group = doc.addObject("App::DocumentObjectGroup", RESULT_GROUP)
-            created.append(group)
-            group.Label = "Similar features"
+        group = result_group(doc, created)
         old = [o for o in results_for(target_obj) if getattr(o, "Reference", None) == ref_obj and getattr(o, "ReferenceText", ref_text) == ref_text]
-        new = []
-        for i, m in enumerate(result.matches):
-            obj = doc.addObject("App::FeaturePython", "Similar")
-            created.append(obj)
-            ExtractionResult(obj)
-            obj.Target = target_obj
-            obj.Reference = ref_obj
-            obj.ReferenceText = ref_text
-            obj.Transform = App.Matrix(*[float(x) for x in m.transform.flatten()])
-            obj.Score = m.score
-            obj.MaxError = m.max_error
-            obj.RmsError = m.rms_error
-            obj.Scale = m.scale
-            obj.Center = App.Vector(*[float(x) for x in m.center])
-            obj.Faces = [int(f) for f in m.faces]
-            obj.Pairs = int(m.pairs)
-            obj.Mirrored = bool(m.mirrored)
-            obj.Color = PALETTE[i % len(PALETTE)]
-            if App.GuiUp:
-                from .objects import ViewProviderResult
-                ViewProviderResult(obj.ViewObject)
-            new.append(obj)
+        new = add_match_objects(target_obj, ref_obj, ref_text, result.matches, created)
         group.addObjects(new)
         for o in old:  # only once everything new exists
             doc.removeObject(o.Name)
@@ -432,7 +451,10 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
 def results_for(target_obj):
     """The found instances (result objects) on target_obj."""
     group = target_obj.Document.getObject(RESULT_GROUP)
-    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
+    members = []
+    for o in (group.Group if group else []):  # a library search's results sit in one group per feature
+        members += list(o.Group) if o.TypeId == "App::DocumentObjectGroup" else [o]
+    return [o for o in members if getattr(o, "Target", None) == target_obj
             and getattr(o, "Proxy", None).__class__.__name__ == "ExtractionResult"]
 
 
@@ -464,6 +486,35 @@ def _cli():
     raise FeatureExtractError("the featureextract program is not found (set FEATUREEXTRACT_CLI)")
 
 
+def run_cli(args, progress=None):
+    """Runs `featureextract ARGS...` as a child process and returns what it printed on stdout.
+    Its progress lines (`featureextract: STAGE NN%`) go to progress(stage, fraction); progress
+    returning False kills it (featureextract.Cancelled). A failure raises FeatureExtractError with the
+    program's last line, its one-line message."""
+    import re
+    import subprocess
+    import threading
+    proc = subprocess.Popen([_cli(), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out = []
+    reader = threading.Thread(target=lambda: out.append(proc.stdout.read()), daemon=True)
+    reader.start()  # stdout drained beside stderr, so that neither pipe fills up and blocks the child
+    last = ""
+    for line in proc.stderr:
+        line = line.rstrip("\n")
+        m = re.match(r"featureextract: (.*) (\d+)%$", line)
+        if m:
+            if progress is not None and progress(m.group(1), int(m.group(2)) / 100.0) is False:
+                proc.kill()
+                proc.wait()
+                raise fx.Cancelled("cancelled")
+        elif line:
+            last = line
+    reader.join()
+    if proc.wait() != 0:
+        raise FeatureExtractError(last.replace("featureextract: ", "", 1) or f"featureextract {args[0]} failed (exit {proc.returncode})")
+    return "".join(out)
+
+
 def _bolt_faces(shape, nodes, face_numbers, tol):
     """The faces (FaceN) among face_numbers on which most of the given node positions lie."""
     import Part
@@ -490,8 +541,6 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
     background (pass shape=target_shape(target_obj), taken on the GUI thread). progress(stage,
     fraction) returning False cancels (fx.Cancelled)."""
     import os
-    import re
-    import subprocess
     import tempfile
     if isinstance(feature_dirs, str):
         feature_dirs = [feature_dirs]
@@ -505,7 +554,7 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
     brep = os.path.join(work, "part.brep")
     shape.exportBrep(brep)
     out = os.path.join(work, "out")
-    cmd = [_cli(), "mesh-part", "--target", brep, "--output", out, "--seed", str(int(seed))]
+    cmd = ["mesh-part", "--target", brep, "--output", out, "--seed", str(int(seed))]
     for d in feature_dirs:
         cmd += ["--feature", d]
     if solid:
@@ -513,20 +562,7 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
     if size:
         cmd += ["--size", repr(float(size))]
     cmd += ["--force", repr(float(force))]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    last = ""
-    for line in proc.stderr:
-        line = line.rstrip("\n")
-        m = re.match(r"featureextract: (.*) (\d+)%$", line)
-        if m:
-            if progress is not None and progress(m.group(1), int(m.group(2)) / 100.0) is False:
-                proc.kill()
-                proc.wait()
-                raise fx.Cancelled("cancelled")
-        elif line:
-            last = line
-    if proc.wait() != 0:
-        raise FeatureExtractError(last.replace("featureextract: ", "", 1) or f"mesh-part failed (exit {proc.returncode})")
+    run_cli(cmd, progress)
     _part_meshes[key] = out
     return out
 

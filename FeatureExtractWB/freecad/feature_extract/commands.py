@@ -21,11 +21,11 @@ def report_error(message):
         QtGui.QMessageBox.warning(Gui.getMainWindow(), translate("FeatureExtract", "FeatureExtract"), message)
 
 
-def _do(command):
+def _do(command, module="freecad.feature_extract.api"):
     """Runs (and records for macros) one API call; a failure becomes a message, not a traceback."""
     # the import is recorded every time: Gui.addModule writes it once per session, so a macro
     # recorded after the first use would lack it and stop with "name 'freecad' is not defined"
-    Gui.doCommand("import freecad.feature_extract.api")
+    Gui.doCommand(f"import {module}")
     try:
         Gui.doCommand(command)
     except Exception as e:  # noqa: BLE001
@@ -46,15 +46,20 @@ def _references(doc):
     return [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
 
 
-class Tessellate:
-    def GetResources(self):
-        return {"Pixmap": icon("Tessellate"), "MenuText": translate("FeatureExtract", "Show samples and key points"),
-                "ToolTip": translate("FeatureExtract", "Toggle an overlay of the dense and sparse samples (grey, blue) "
-                                                       "and key points (red) of the selected solid")}
+class BackgroundCommand:
+    """A command whose work runs in the background (background.py): available while a document is
+    open and no other background job runs, since one progress dialog at a time is what a user follows."""
 
     def IsActive(self):
         from . import background
         return App.ActiveDocument is not None and background.running is None
+
+
+class Tessellate(BackgroundCommand):
+    def GetResources(self):
+        return {"Pixmap": icon("Tessellate"), "MenuText": translate("FeatureExtract", "Show samples and key points"),
+                "ToolTip": translate("FeatureExtract", "Toggle an overlay of the dense and sparse samples (grey, blue) "
+                                                       "and key points (red) of the selected solid")}
 
     def Activated(self):
         from . import overlay
@@ -109,17 +114,9 @@ class PickReference:
         return App.ActiveDocument is not None
 
     def Activated(self):
-        sel = [s for s in Gui.Selection.getSelectionEx() if s.SubElementNames]
-        if not sel:
-            report_error(translate("FeatureExtract", "Select one or more faces of a solid first."))
-            return
-        if len({s.Object.Name for s in sel}) > 1:
-            report_error(translate("FeatureExtract", "Select faces of one solid only."))
-            return
-        obj, names = sel[0].Object, [n for s in sel for n in s.SubElementNames]
-        bad = [n for n in names if not n.startswith("Face")]
-        if bad:
-            report_error(translate("FeatureExtract", "Only faces can make a reference; the selection has ") + ", ".join(bad))
+        obj, names = _picked_faces()
+        if obj is None:
+            report_error(names)
             return
         _do(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
             f".getObject('{obj.Name}'), {names!r})")
@@ -167,7 +164,7 @@ class Extract:
         Gui.Control.showDialog(ExtractPanel(target, refs))
 
 
-class PlaceMesh:
+class PlaceMesh(BackgroundCommand):
     """Runs the extraction with a reference feature folder's geometry in the background (progress
     dialog with Cancel), then places the feature's FE mesh on every instance by a recorded
     `api.place_meshes(...)` call."""
@@ -179,10 +176,6 @@ class PlaceMesh:
                 "ToolTip": translate("FeatureExtract", "Find the instances of a reference feature folder (geometry + FE mesh + "
                                                        "meshing specification) on the selected solid and place its mesh on each, "
                                                        "colored by element quality")}
-
-    def IsActive(self):
-        from . import background
-        return App.ActiveDocument is not None and background.running is None
 
     def Activated(self, feature_dir=None):
         from PySide import QtGui
@@ -226,7 +219,7 @@ class PlaceMesh:
             lambda progress: api.run(job, progress), done)
 
 
-class MeshPart:
+class MeshPart(BackgroundCommand):
     """One FE mesh of the whole selected solid with the rules of one or more feature folders (issue 12):
     `featureextract mesh-part` runs in the background (progress dialog with Cancel), then a recorded
     `api.mesh_part(...)` adds the mesh and a CalculiX analysis that the FEM workbench solves."""
@@ -239,10 +232,6 @@ class MeshPart:
                                                        "features gets its feature's FE mesh, gmsh meshes the rest (conforming, "
                                                        "tetrahedra inside), and a CalculiX analysis is set up (support, bolt "
                                                        "loads, steel)")}
-
-    def IsActive(self):
-        from . import background
-        return App.ActiveDocument is not None and background.running is None
 
     @staticmethod
     def feature_folders(folder):
@@ -297,6 +286,142 @@ class MeshPart:
             lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), done)
 
 
+def _picked_faces():
+    """(solid, ["Face3", ...]) of the faces selected on one solid, or a message saying what is wrong."""
+    sel = [s for s in Gui.Selection.getSelectionEx() if s.SubElementNames]
+    if not sel:
+        return None, translate("FeatureExtract", "Select one or more faces of a solid first.")
+    if len({s.Object.Name for s in sel}) > 1:
+        return None, translate("FeatureExtract", "Select faces of one solid only.")
+    names = [n for s in sel for n in s.SubElementNames]
+    bad = [n for n in names if not n.startswith("Face")]
+    if bad:
+        return None, translate("FeatureExtract", "Only faces can make a feature; the selection has ") + ", ".join(bad)
+    return sel[0].Object, names
+
+
+class AddToLibrary(BackgroundCommand):
+    """The faces picked on a solid become a new feature of the library (geometry, FE mesh by gmsh,
+    feature.json, thumbnail), made in the background by `featureextract library add`. The document is
+    not changed."""
+
+    running = None
+
+    def GetResources(self):
+        return {"Pixmap": icon("AddToLibrary"), "MenuText": translate("FeatureExtract", "Add picked faces to the library"),
+                "ToolTip": translate("FeatureExtract", "Make the faces selected on a solid a new feature of the feature library, "
+                                                       "with an FE mesh and a thumbnail")}
+
+    def Activated(self, name=None, cls="", description="", lib=None, done=None):
+        from . import background, library
+        obj, faces = _picked_faces()
+        if obj is None:
+            report_error(faces)
+            return
+        lib = lib or library.default_library()
+        if name is None:
+            from PySide import QtGui
+            name, ok = QtGui.QInputDialog.getText(Gui.getMainWindow(), translate("FeatureExtract", "Add to the library"),
+                                                  translate("FeatureExtract", "Name of the new feature ({n} faces of {part}):")
+                                                  .format(n=len(faces), part=obj.Label))
+            if not ok:
+                return
+        if not name.strip():
+            report_error(translate("FeatureExtract", "A library feature needs a name."))
+            return
+        try:
+            library._face_numbers(obj, faces)  # a bad selection is said now, not after the child ran
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+            return
+
+        def finished(kind, value):
+            AddToLibrary.running = None
+            if kind == "ok":
+                App.Console.PrintMessage(f"FeatureExtract: {name.strip()} ({len(faces)} faces of {obj.Label}) added to "
+                                         f"the library {lib} as {value}\n")
+            elif kind == "error":
+                report_error(value)
+            else:
+                App.Console.PrintMessage("FeatureExtract: cancelled; nothing was added.\n")
+            if done is not None:
+                done(kind, value)
+
+        AddToLibrary.running = background.start(
+            translate("FeatureExtract", "Add picked faces to the library"),
+            translate("FeatureExtract", "Meshing {name} for the library...").format(name=name.strip()),
+            lambda progress: library.add_faces(obj, faces, name, lib, cls, description, progress=progress), finished)
+
+
+class SearchLibrary(BackgroundCommand):
+    """Searches the selected solid for every feature of the library in the background (progress
+    dialog with Cancel), then records one result group per feature found, colored per feature, by a
+    recorded `library.search(...)` call."""
+
+    running = None
+
+    def GetResources(self):
+        return {"Pixmap": icon("SearchLibrary"), "MenuText": translate("FeatureExtract", "Search the part with the library"),
+                "ToolTip": translate("FeatureExtract", "Find every instance of every feature of the feature library on the "
+                                                       "selected solid; one result group per feature, in its own color")}
+
+    def Activated(self, lib=None, done=None):
+        from . import api, background, library
+        target = _selected_solid() or _only_solid(App.ActiveDocument)
+        if target is None:
+            report_error(translate("FeatureExtract", "Select the solid to search."))
+            return
+        lib = lib or library.default_library()
+        try:
+            shape = api.target_shape(target)
+            names = [f["name"] for f in library.features(lib)]
+        except Exception as e:  # noqa: BLE001
+            report_error(str(e))
+            return
+
+        def finished(kind, value):
+            SearchLibrary.running = None
+            if kind == "ok":
+                _do(f"freecad.feature_extract.library.search(App.getDocument('{target.Document.Name}')"
+                    f".getObject('{target.Name}'), {lib!r})", module="freecad.feature_extract.library")
+                for line in library.summary(value):
+                    App.Console.PrintMessage(f"FeatureExtract: {target.Label}: {line}\n")
+            elif kind == "error":
+                report_error(value)
+            else:
+                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
+            if done is not None:
+                done(kind, value)
+
+        SearchLibrary.running = background.start(
+            translate("FeatureExtract", "Search the part with the library"),
+            translate("FeatureExtract", "Searching {name} for {n} features...").format(name=target.Label, n=len(names)),
+            lambda progress: library.compute(target, lib, progress=progress, shape=shape), finished)
+
+
+class Library:
+    def GetResources(self):
+        return {"Pixmap": icon("Library"), "MenuText": translate("FeatureExtract", "Feature library"),
+                "ToolTip": translate("FeatureExtract", "The library of reference features: thumbnails and meshing rules; "
+                                                       "add picked faces to it, search a part with it")}
+
+    def IsActive(self):
+        return Gui.Control.activeDialog() is False
+
+    def Activated(self):
+        from .library_panel import LibraryPanel
+        Gui.Control.showDialog(LibraryPanel())
+
+
+def _only_solid(doc):
+    """The document's one visible solid, when there is exactly one (the "active part")."""
+    if doc is None:
+        return None
+    solids = [o for o in doc.Objects if (o.TypeId.startswith("Part::") or o.TypeId == "PartDesign::Body") and getattr(o, "Shape", None) is not None
+              and not o.Shape.isNull() and o.Shape.Solids and getattr(o, "Visibility", True)]
+    return solids[0] if len(solids) == 1 else None
+
+
 class ClearColors:
     def GetResources(self):
         return {"Pixmap": icon("ClearColors"), "MenuText": translate("FeatureExtract", "Clear result colors"),
@@ -318,5 +443,6 @@ class ClearColors:
 
 
 COMMANDS = {"FE_Tessellate": Tessellate, "FE_PickReference": PickReference, "FE_SaveReference": SaveReference,
-            "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_MeshPart": MeshPart, "FE_ClearColors": ClearColors}
+            "FE_Extract": Extract, "FE_PlaceMesh": PlaceMesh, "FE_MeshPart": MeshPart, "FE_Library": Library,
+            "FE_AddToLibrary": AddToLibrary, "FE_SearchLibrary": SearchLibrary, "FE_ClearColors": ClearColors}
 

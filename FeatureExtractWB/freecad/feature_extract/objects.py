@@ -140,7 +140,9 @@ def face_names(result_obj):
 
 def recolor(target_obj):
     """Colors the target's faces: every result on it in its own color, the rest in the shape color.
-    Deferred to the event loop: a DiffuseColor set inside a recompute is overwritten afterwards."""
+    Where results claim the same face, the best scored shows (ties: the first by reference name, as
+    a library search ranks its overlaps). Deferred to the event loop: a DiffuseColor set inside a
+    recompute is overwritten afterwards."""
     if not App.GuiUp or target_obj is None:
         return
     from PySide import QtCore
@@ -153,7 +155,8 @@ def recolor(target_obj):
         n = len(target_obj.Shape.Faces)
         base = tuple(vo.ShapeColor[:3]) + (0.0,)
         colors = [base] * n
-        for r in results_for(target_obj):
+        ranked = sorted(results_for(target_obj), key=lambda r: (-round(r.Score, 6), r.ReferenceText, r.Label))
+        for r in reversed(ranked):  # the best last, so that it shows
             if getattr(r, "ViewObject", None) is not None and not r.ViewObject.Visibility:
                 continue
             for f in r.Faces:
