@@ -204,12 +204,13 @@ class Db:
             for name, n in self.execute("SELECT f.name, COUNT(*) FROM matches m JOIN features f ON f.id = m.feature_id "
                                         "WHERE m.result_id = ? GROUP BY f.name", (rid,)).fetchall():
                 counts[name] = int(n)
-            out.append({"path": path, "ok": bool(ok), "error": err or "", "notes": notes or "", "seconds": float(sec or 0), "counts": counts})
+            out.append({"path": path, "result_id": rid, "ok": bool(ok), "error": err or "", "notes": notes or "", "seconds": float(sec or 0),
+                        "counts": counts})
         return out
 
     def matches(self):
-        cur = self.execute("SELECT p.path, f.name, m.score, m.rms_error, m.scale, m.mirrored, m.faces, m.transform "
+        cur = self.execute("SELECT p.path, f.name, m.score, m.rms_error, m.scale, m.mirrored, m.faces, m.transform, m.result_id "
                            "FROM matches m JOIN results r ON r.id = m.result_id JOIN parts p ON p.id = r.part_id "
                            "JOIN features f ON f.id = m.feature_id ORDER BY p.path, f.name, m.id")
-        return [{"path": a, "feature": b, "score": c, "rms_error": d, "scale": e, "mirrored": bool(g), "faces": h, "transform": t}
-                for a, b, c, d, e, g, h, t in cur.fetchall()]
+        return [{"path": a, "feature": b, "score": c, "rms_error": d, "scale": e, "mirrored": bool(g), "faces": h, "transform": t,
+                 "result_id": rid} for a, b, c, d, e, g, h, t, rid in cur.fetchall()]

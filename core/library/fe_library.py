@@ -163,10 +163,11 @@ def render_thumbnail(mesh, path, colors=None, size_px=256):
     ax = fig.add_axes([0, 0, 1, 1], projection="3d")
     ax.add_collection3d(Poly3DCollection(tri, facecolors=fc, edgecolors=fc, linewidths=0.3))  # edges: no seams
     lo, hi = v.min(axis=0), v.max(axis=0)
-    c, r = (lo + hi) / 2, max((hi - lo).max() / 2, 1e-9)
-    ax.set_xlim(c[0] - r, c[0] + r)
-    ax.set_ylim(c[1] - r, c[1] + r)
-    ax.set_zlim(c[2] - r, c[2] + r)
+    ext = np.maximum(hi - lo, 1e-3 * max((hi - lo).max(), 1e-9))  # a flat part keeps some thickness
+    ax.set_xlim(lo[0], lo[0] + ext[0])
+    ax.set_ylim(lo[1], lo[1] + ext[1])
+    ax.set_zlim(lo[2], lo[2] + ext[2])
+    ax.set_box_aspect(ext, zoom=1.05)  # true proportions, the part filling the picture (a plate is not a speck)
     ax.view_init(elev=30, azim=-60)
     ax.set_axis_off()
     fig.savefig(path, dpi=64)
@@ -588,6 +589,53 @@ def program_version():
 # ---------------------------------------------------------------------------------------------
 # report
 
+FEATURE_COLORS = [(0.89, 0.10, 0.11), (0.22, 0.49, 0.72), (0.30, 0.69, 0.29), (1.00, 0.50, 0.00), (0.60, 0.31, 0.64),
+                  (0.65, 0.34, 0.16), (0.97, 0.51, 0.75), (0.00, 0.75, 0.75), (0.74, 0.74, 0.13), (0.10, 0.10, 0.55)]
+
+
+def _hex(rgb):
+    return "#" + "".join(f"{int(round(255 * c)):02x}" for c in rgb)
+
+
+def part_pictures(rows, matches, feats, folder, limit):
+    """For each of the first `limit` parts: a picture with every instance's faces in its feature's
+    color (the part read again, coarsely) and the part's matches as JSON, in `folder`. Returns
+    {path: (picture file or None, JSON file)}; a part that cannot be read again gets no picture."""
+    os.makedirs(folder, exist_ok=True)
+    by_part = {}
+    for m in matches:
+        by_part.setdefault(m["path"], []).append(m)
+    out = {}
+    fxm = None
+    for n, r in enumerate(rows):
+        mine = by_part.get(r["path"], [])
+        js = f"part{n + 1}.json"
+        with open(os.path.join(folder, js), "w", encoding="utf-8", newline="\n") as f:
+            json.dump({"path": r["path"], "matches": [{k: (json.loads(v) if k in ("faces", "transform") and isinstance(v, str) else v)
+                                                       for k, v in m.items() if k not in ("path", "result_id")} for m in mine]}, f, indent=1)
+        pic = None
+        if n < limit and r["ok"] and os.path.isfile(r["path"]):
+            try:
+                fxm = fxm or fx()
+                import numpy as np
+                mesh = fxm.read_shape(r["path"])
+                face_color = {}
+                for m in sorted(mine, key=lambda m: m["score"]):  # the best scored shows where two claim a face
+                    for face in (json.loads(m["faces"]) if isinstance(m["faces"], str) else m["faces"]) or []:
+                        face_color[int(face)] = FEATURE_COLORS[feats.index(m["feature"]) % len(FEATURE_COLORS)]
+                ids = np.asarray(mesh.face_ids)
+                colors = np.tile([0.62, 0.66, 0.72], (len(ids), 1))
+                for face, c in face_color.items():
+                    colors[ids == face] = c
+                pic = f"part{n + 1}.png"
+                render_thumbnail(mesh, os.path.join(folder, pic), colors)
+            except Exception as e:  # noqa: BLE001  (a part changed or gone since the batch: no picture)
+                print(f"{PROG} report: {r['path']}: no picture ({' '.join(str(e).split())})", file=sys.stderr)
+                pic = None
+        out[r["path"]] = (pic, js)
+    return out
+
+
 def report_cmd(a):
     import html
     db = fe_db.connect(a.db, create=False)
@@ -595,6 +643,10 @@ def report_cmd(a):
     matches = db.matches()
     db.close()
     feats = sorted({m["feature"] for m in matches} | {f for r in rows for f in r["counts"]})
+    latest = {r["result_id"] for r in rows}
+    matches = [m for m in matches if m["result_id"] in latest]  # a part searched again: its newest result
+    files = os.path.splitext(a.output)[0] + "_files"
+    pictures = part_pictures(rows, matches, feats, files, a.thumbnails)
     if a.csv:
         import csv
         with open(a.csv, "w", newline="") as f:
@@ -607,13 +659,22 @@ def report_cmd(a):
            "td.n{text-align:right}.err{color:#a00}</style></head><body>",
            f"<h1>FeatureExtract: {len(rows)} parts</h1>",
            f"<p>{sum(1 for r in rows if r['error'])} parts with errors; {len(matches)} instances.</p>",
-           "<table><tr><th>part</th>" + "".join(f"<th>{html.escape(f)}</th>" for f in feats) + "<th>seconds</th><th>error, or features not searched</th></tr>"]
+           "<p>" + " ".join(f"<span style='background:{_hex(FEATURE_COLORS[k % len(FEATURE_COLORS)])};padding:0 6px'>&nbsp;</span> "
+                            f"{html.escape(f)}" for k, f in enumerate(feats)) + "</p>",
+           "<table><tr><th>part</th><th>picture</th>" + "".join(f"<th>{html.escape(f)}</th>" for f in feats)
+           + "<th>seconds</th><th>error, or features not searched</th></tr>"]
+    rel = os.path.basename(files)
     for r in rows:
         cells = "".join(f"<td class='n'>{r['counts'].get(f, 0)}</td>" for f in feats)
         err = (f"<td class='err'>{html.escape(r['error'])}</td>" if r["error"]
                else f"<td>{'<br>'.join(html.escape(x) for x in r['notes'].splitlines())}</td>")
-        out.append(f"<tr><td>{html.escape(r['path'])}</td>{cells}<td class='n'>{r['seconds']:.1f}</td>{err}</tr>")
+        pic, js = pictures.get(r["path"], (None, None))
+        img = f"<img src='{html.escape(rel + '/' + pic)}' width='128' height='128' alt='instances colored'>" if pic else ""
+        link = f" <a href='{html.escape(rel + '/' + js)}'>matches</a>" if js else ""
+        out.append(f"<tr><td>{html.escape(r['path'])}{link}</td><td>{img}</td>{cells}<td class='n'>{r['seconds']:.1f}</td>{err}</tr>")
     out.append("</table>")
+    if len(rows) > a.thumbnails:
+        out.append(f"<p>Pictures of the first {a.thumbnails} parts only (--thumbnails).</p>")
     out.append("<h2>Totals per feature</h2><table><tr><th>feature</th><th>instances</th><th>parts</th></tr>")
     for f in feats:
         out.append(f"<tr><td>{html.escape(f)}</td><td class='n'>{sum(r['counts'].get(f, 0) for r in rows)}</td>"
@@ -676,6 +737,8 @@ def parser():
     rp.add_argument("--db", required=True)
     rp.add_argument("--output", required=True)
     rp.add_argument("--csv", default="")
+    rp.add_argument("--thumbnails", type=int, default=200, metavar="N",
+                    help="pictures of the first N parts with their instances colored (0: none)")
     return ap
 
 

@@ -4,6 +4,7 @@
 files. Usage: test_library.py FEATUREEXTRACT MODELS_DIR"""
 import json
 import os
+import re
 import shutil
 import signal
 import sqlite3
@@ -318,6 +319,24 @@ class Batch(unittest.TestCase):
             page = f.read()
         for name in ("ribs_bosses.step", "empty.step", "rib", "screw boss"):
             self.assertIn(name, page)
+        # a picture of each readable part with its instances in their feature's color, its matches as JSON
+        files = os.path.join(self.dir, "report_files")
+        pics = re.findall(r"<img src='report_files/(part\d+\.png)'", page)
+        self.assertGreaterEqual(len(pics), 3, page[:2000])
+        for p in pics:
+            self.assertTrue(os.path.getsize(os.path.join(files, p)) > 1000, p)
+        links = re.findall(r"<a href='report_files/(part\d+\.json)'>", page)
+        found = [json.load(open(os.path.join(files, x))) for x in links]
+        self.assertEqual(sum(len(x["matches"]) for x in found), len(self.reference[1]))
+        plate = next(x for x in found if x["path"].endswith("ribs_bosses.step"))
+        self.assertEqual(sorted({m["feature"] for m in plate["matches"]}), ["rib", "screw boss"])
+        import matplotlib.image
+        i = links.index(next(x for x in links if json.load(open(os.path.join(files, x)))["path"].endswith("ribs_bosses.step")))
+        img = matplotlib.image.imread(os.path.join(files, links[i].replace(".json", ".png")))
+        red = ((img[..., 0] > 0.5) & (img[..., 1] < 0.25) & (img[..., 2] < 0.25)).sum()  # the first feature's color
+        blue = ((img[..., 2] > 0.45) & (img[..., 0] < 0.3)).sum()
+        self.assertGreater(red, 20, "the ribs (red, the first feature) show on the plate's picture")
+        self.assertGreater(blue, 20, "the bosses (blue) show on the plate's picture")
         with open(csv) as f:
             lines = f.read().strip().splitlines()
         self.assertEqual(len(lines) - 1, len(self.reference[1]))
