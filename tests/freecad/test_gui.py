@@ -26,6 +26,7 @@ def main():
     Gui.activateWorkbench("FeatureExtractWorkbench")
     check(Gui.activeWorkbench().name() == "FeatureExtractWorkbench", "workbench activates")
     from freecad.feature_extract import api, commands, taskpanel
+    from freecad.feature_extract.objects import is_of_type
     check(os.path.realpath(api.__file__).startswith(os.path.realpath(os.environ["FE_WB"])),
           f"the workbench under test is {os.environ['FE_WB']} ({api.__file__})")
     commands.INTERACTIVE = False
@@ -56,7 +57,7 @@ def main():
              if f.BoundBox.XMin >= 17 and f.BoundBox.XMax <= 33 and f.BoundBox.ZMin > -1e-3 and f.BoundBox.ZMax > 0.5]
     Gui.Selection.addSelection(part, faces)
     Gui.runCommand("FE_PickReference")
-    refs = [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
+    refs = [o for o in doc.Objects if is_of_type(o, "ReferenceFeature")]
     check(len(refs) == 1 and list(refs[0].Faces) == faces, f"reference made from {len(faces)} picked faces")
 
     # a macro recorded by FreeCAD's recorder replays (issue 11, item 2): the recorder writes `import X`
@@ -78,7 +79,7 @@ def main():
     wait_for(lambda: False, 0.3)
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(part, faces)
-    n_refs = len([o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"])
+    n_refs = len([o for o in doc.Objects if is_of_type(o, "ReferenceFeature")])
     commands.last_error = None
     Gui.Command.get("FE_PickReference").getAction()[0].trigger()  # as a click on the toolbar button
     wait_for(lambda: False, 0.3)
@@ -93,7 +94,7 @@ def main():
         replayed = None
     except Exception as e:  # noqa: BLE001
         replayed = f"{type(e).__name__}: {e}"
-    refs_now = len([o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"])
+    refs_now = len([o for o in doc.Objects if is_of_type(o, "ReferenceFeature")])
     check(replayed is None and refs_now == n_refs + 2, f"recorded macro replays ({replayed}; references {n_refs} -> {refs_now})")
 
 

@@ -14,6 +14,7 @@ document is left exactly as it was (nothing is created, recolored or removed).""
 import FreeCAD as App
 
 from . import translate  # noqa: F401  (also sets up sys.path for the native module)
+from .objects import is_of_type
 
 import featureextract as fx
 
@@ -187,7 +188,7 @@ class Job:
         if self.reference is None:
             if hasattr(reference, "isNull"):
                 self.reference_brep = reference.exportBrepToString()
-            elif getattr(reference, "Proxy", None).__class__.__name__ == "ReferenceFeature":
+            elif is_of_type(reference, "ReferenceFeature"):
                 self.reference_brep = reference_shape(reference).exportBrepToString()
                 self.reference_label = reference.Label
             else:
@@ -455,14 +456,14 @@ def results_for(target_obj):
     for o in (group.Group if group else []):  # a library search's results sit in one group per feature
         members += list(o.Group) if o.TypeId == "App::DocumentObjectGroup" else [o]
     return [o for o in members if getattr(o, "Target", None) == target_obj
-            and getattr(o, "Proxy", None).__class__.__name__ == "ExtractionResult"]
+            and is_of_type(o, "ExtractionResult")]
 
 
 def meshes_for(target_obj):
     """The FE meshes placed on target_obj."""
     group = target_obj.Document.getObject(RESULT_GROUP)
     return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
-            and getattr(o, "Proxy", None).__class__.__name__ == "FeatureMesh"]
+            and is_of_type(o, "FeatureMesh")]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@ import FreeCAD as App
 import FreeCADGui as Gui
 
 from . import icon, translate
+from .objects import is_of_type
 
 INTERACTIVE = True  # False in tests: errors go to the report view only (no modal dialog)
 last_error = None
@@ -37,13 +38,13 @@ def _selected_solid():
     for s in sel:
         shape = getattr(s.Object, "Shape", None)
         if shape is not None and not shape.isNull() and shape.Faces and \
-                getattr(s.Object, "Proxy", None).__class__.__name__ != "ReferenceFeature":
+                not is_of_type(s.Object, "ReferenceFeature"):
             return s.Object
     return None
 
 
 def _references(doc):
-    return [o for o in doc.Objects if getattr(o, "Proxy", None).__class__.__name__ == "ReferenceFeature"]
+    return [o for o in doc.Objects if is_of_type(o, "ReferenceFeature")]
 
 
 class BackgroundCommand:

@@ -27,8 +27,16 @@ class _Stateless:
         return None
 
 
+def is_of_type(obj, name):
+    """True when obj is one of the workbench's document objects of that kind ("ReferenceFeature",
+    "ExtractionResult", "FeatureMesh"): its proxy's Type, which a reopened document keeps too."""
+    return getattr(getattr(obj, "Proxy", None), "Type", None) == "FeatureExtract::" + name
+
+
 class ReferenceFeature(_Stateless):
     """A reference feature: a list of faces (FaceN) of a source solid. Its Shape is their compound."""
+
+    Type = "FeatureExtract::ReferenceFeature"
 
     def __init__(self, obj):
         obj.Proxy = self
@@ -43,6 +51,8 @@ class ReferenceFeature(_Stateless):
 
 class ExtractionResult(_Stateless):
     """One found instance of a reference on a target (issue 2's result fields)."""
+
+    Type = "FeatureExtract::ExtractionResult"
 
     def __init__(self, obj):
         obj.Proxy = self
@@ -68,6 +78,8 @@ class ExtractionResult(_Stateless):
 class FeatureMesh(_Stateless):
     """A reference feature's FE mesh placed on one found instance (Fem::FemMeshObjectPython: the mesh is
     saved in the .FCStd; the element quality too, so its colors come back on reopening)."""
+
+    Type = "FeatureExtract::FeatureMesh"
 
     def __init__(self, obj):
         obj.Proxy = self
