@@ -49,7 +49,10 @@ def fx():
     try:
         import featureextract
     except ImportError:
-        for d in (os.environ.get("FEATUREEXTRACT_PYTHONPATH", ""), os.path.join(HERE, "python")):
+        # beside this program in the build tree; installed (P/share/featureextract): P's Python folders
+        import glob
+        for d in (os.environ.get("FEATUREEXTRACT_PYTHONPATH", ""), os.path.join(HERE, "python"),
+                  *sorted(glob.glob(os.path.join(HERE, "..", "..", "lib", "python3*", "*-packages")))):
             if d and os.path.isdir(d) and d not in sys.path:
                 sys.path.insert(0, d)
         try:
@@ -60,7 +63,7 @@ def fx():
 
 
 def cli_path():
-    for p in (os.environ.get("FE_CLI", ""), os.path.join(HERE, "featureextract")):
+    for p in (os.environ.get("FE_CLI", ""), os.path.join(HERE, "featureextract"), os.path.join(HERE, "..", "..", "bin", "featureextract")):
         if p and os.access(p, os.X_OK):
             return p
     raise UserError("the featureextract CLI is not next to fe_library.py (set FE_CLI)", EXIT_INTERNAL)

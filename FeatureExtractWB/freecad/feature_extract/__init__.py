@@ -1,14 +1,19 @@
 """FeatureExtract for FreeCAD: App-side package (works in freecadcmd without a GUI).
 
-Finds the C++ core's Python module (`featureextract`, built into <repo>/build/python by ./setup.sh, or
-the folder named by the FEATUREEXTRACT_PYTHONPATH environment variable) and puts it on sys.path.
+Finds the C++ core's Python module (`featureextract`): the folder named by the
+FEATUREEXTRACT_PYTHONPATH environment variable, else <repo>/build/python (built by ./setup.sh), else
+wherever Python finds it (installed by `cmake --install`).
 The headless API is `freecad.feature_extract.api`."""
 import os
 import sys
 
 _HERE = os.path.dirname(os.path.realpath(__file__))
-REPO = os.path.normpath(os.path.join(_HERE, "..", "..", ".."))
-ICONS = os.path.join(REPO, "Resources", "icons")
+REPO = os.path.normpath(os.path.join(_HERE, "..", "..", ".."))  # the checkout, when run from one
+# The icons and the shipped feature library: beside the workbench when installed (Mod/FeatureExtract/
+# Resources), else the checkout's Resources.
+_INSTALLED = os.path.normpath(os.path.join(_HERE, "..", "..", "Resources"))
+RESOURCES = _INSTALLED if os.path.isdir(os.path.join(_INSTALLED, "icons")) else os.path.join(REPO, "Resources")
+ICONS = os.path.join(RESOURCES, "icons")
 
 
 def _native_path():

@@ -478,7 +478,8 @@ def _cli():
     if env and os.path.isfile(env):
         return env
     here = os.path.dirname(os.path.abspath(fx.__file__))
-    for cand in (os.path.join(here, "..", "..", "featureextract"), os.path.join(here, "..", "..", "..", "bin", "featureextract")):
+    # build/python/featureextract -> build/featureextract; installed: P/lib/pythonX/dist-packages/featureextract -> P/bin
+    for cand in (os.path.join(here, "..", "..", "featureextract"), os.path.join(here, "..", "..", "..", "..", "bin", "featureextract")):
         if os.path.isfile(cand):
             return os.path.normpath(cand)
     found = shutil.which("featureextract")

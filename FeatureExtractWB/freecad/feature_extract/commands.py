@@ -180,7 +180,7 @@ class PlaceMesh(BackgroundCommand):
 
     def Activated(self, feature_dir=None):
         from PySide import QtGui
-        from . import REPO, api
+        from . import RESOURCES, api
         target = _selected_solid()
         if target is None:
             report_error(translate("FeatureExtract", "Select the solid to mesh first."))
@@ -188,7 +188,7 @@ class PlaceMesh(BackgroundCommand):
         if feature_dir is None:
             feature_dir = QtGui.QFileDialog.getExistingDirectory(
                 Gui.getMainWindow(), translate("FeatureExtract", "Reference feature folder (with feature.json)"),
-                os.path.join(REPO, "Resources", "library"))
+                os.path.join(RESOURCES, "library"))
             if not feature_dir:
                 return
         try:
@@ -244,7 +244,7 @@ class MeshPart(BackgroundCommand):
 
     def Activated(self, folder=None):
         from PySide import QtGui
-        from . import REPO, api
+        from . import RESOURCES, api
         target = _selected_solid()
         if target is None:
             report_error(translate("FeatureExtract", "Select the solid to mesh first."))
@@ -252,7 +252,7 @@ class MeshPart(BackgroundCommand):
         if folder is None:
             folder = QtGui.QFileDialog.getExistingDirectory(
                 Gui.getMainWindow(), translate("FeatureExtract", "A feature folder, or a folder of feature folders"),
-                os.path.join(REPO, "Resources", "library"))
+                os.path.join(RESOURCES, "library"))
             if not folder:
                 return
         dirs = self.feature_folders(folder) if os.path.isdir(folder) else []

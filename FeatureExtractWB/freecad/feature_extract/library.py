@@ -15,11 +15,11 @@ import tempfile
 
 import FreeCAD as App
 
-from . import REPO
+from . import RESOURCES
 from .api import PALETTE, RESULT_GROUP, FeatureExtractError, _changes, run_cli, target_shape
 
 PARAMS = "User parameter:BaseApp/Preferences/Mod/FeatureExtract"
-SHIPPED = os.path.join(REPO, "Resources", "library")
+SHIPPED = os.path.join(RESOURCES, "library")
 
 
 def default_library():
