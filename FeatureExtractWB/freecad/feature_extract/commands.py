@@ -51,9 +51,30 @@ class BackgroundCommand:
     """A command whose work runs in the background (background.py): available while a document is
     open and no other background job runs, since one progress dialog at a time is what a user follows."""
 
+    running = None  # the job in progress (the GUI tests wait on it)
+
     def IsActive(self):
         from . import background
         return App.ActiveDocument is not None and background.running is None
+
+    def start(self, title, label, work, on_ok, cancelled="the document was not changed", done=None):
+        """Runs work(progress) in the background; then, on the GUI thread, on_ok(value) when it
+        succeeded, a message when it failed or was cancelled, and done(kind, value) if given."""
+        from . import background
+        cls = type(self)
+
+        def finished(kind, value):
+            cls.running = None
+            if kind == "ok":
+                on_ok(value)
+            elif kind == "error":
+                report_error(value)
+            else:
+                App.Console.PrintMessage(f"FeatureExtract: cancelled; {cancelled}.\n")
+            if done is not None:
+                done(kind, value)
+
+        cls.running = background.start(title, label, work, finished)
 
 
 class Tessellate(BackgroundCommand):
@@ -170,8 +191,6 @@ class PlaceMesh(BackgroundCommand):
     dialog with Cancel), then places the feature's FE mesh on every instance by a recorded
     `api.place_meshes(...)` call."""
 
-    running = None  # the current run (tests drive it)
-
     def GetResources(self):
         return {"Pixmap": icon("PlaceMesh"), "MenuText": translate("FeatureExtract", "Place feature FE meshes"),
                 "ToolTip": translate("FeatureExtract", "Find the instances of a reference feature folder (geometry + FE mesh + "
@@ -198,34 +217,24 @@ class PlaceMesh(BackgroundCommand):
         except Exception as e:  # noqa: BLE001
             report_error(str(e))
             return
-        from . import background
 
-        def done(kind, value):
-            PlaceMesh.running = None
-            if kind == "ok":
-                _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
-                    f".getObject('{target.Name}'), {feature_dir!r})")
-                placed = api.meshes_for(target)
-                App.Console.PrintMessage(  # the user sees that it worked, and where (issue 11)
-                    f"FeatureExtract: {len(placed)} FE mesh(es) of {os.path.basename(os.path.normpath(feature_dir))} "
-                    f"placed on {target.Label} ({sum(m.FemMesh.FaceCount + m.FemMesh.VolumeCount for m in placed)} elements)\n")
-            elif kind == "error":
-                report_error(value)
-            else:
-                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
+        def placed(_):
+            _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
+                f".getObject('{target.Name}'), {feature_dir!r})")
+            meshes = api.meshes_for(target)
+            App.Console.PrintMessage(  # the user sees that it worked, and where (issue 11)
+                f"FeatureExtract: {len(meshes)} FE mesh(es) of {os.path.basename(os.path.normpath(feature_dir))} "
+                f"placed on {target.Label} ({sum(m.FemMesh.FaceCount + m.FemMesh.VolumeCount for m in meshes)} elements)\n")
 
-        PlaceMesh.running = background.start(
-            translate("FeatureExtract", "Place feature FE meshes"),
-            translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
-            lambda progress: api.run(job, progress), done)
+        self.start(translate("FeatureExtract", "Place feature FE meshes"),
+                   translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
+                   lambda progress: api.run(job, progress), placed)
 
 
 class MeshPart(BackgroundCommand):
     """One FE mesh of the whole selected solid with the rules of one or more feature folders (issue 12):
     `featureextract mesh-part` runs in the background (progress dialog with Cancel), then a recorded
     `api.mesh_part(...)` adds the mesh and a CalculiX analysis that the FEM workbench solves."""
-
-    running = None
 
     def GetResources(self):
         return {"Pixmap": icon("PlaceMesh"), "MenuText": translate("FeatureExtract", "Mesh part with feature rules"),
@@ -264,27 +273,19 @@ class MeshPart(BackgroundCommand):
         except Exception as e:  # noqa: BLE001
             report_error(str(e))
             return
-        from . import background
 
-        def done(kind, value):
-            MeshPart.running = None
-            if kind == "ok":
-                _do(f"freecad.feature_extract.api.mesh_part(App.getDocument('{target.Document.Name}')"
-                    f".getObject('{target.Name}'), {dirs!r})")
-                meshes = [o for o in target.Document.Objects if o.Name.startswith("PartMesh")]
-                if meshes:
-                    m = meshes[-1].FemMesh
-                    App.Console.PrintMessage(f"FeatureExtract: {target.Label} meshed whole: {m.NodeCount} nodes, "
-                                             f"{m.VolumeCount or m.FaceCount} elements; solve it in the FEM workbench\n")
-            elif kind == "error":
-                report_error(value)
-            else:
-                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
+        def meshed(_):
+            _do(f"freecad.feature_extract.api.mesh_part(App.getDocument('{target.Document.Name}')"
+                f".getObject('{target.Name}'), {dirs!r})")
+            meshes = [o for o in target.Document.Objects if o.Name.startswith("PartMesh")]
+            if meshes:
+                m = meshes[-1].FemMesh
+                App.Console.PrintMessage(f"FeatureExtract: {target.Label} meshed whole: {m.NodeCount} nodes, "
+                                         f"{m.VolumeCount or m.FaceCount} elements; solve it in the FEM workbench\n")
 
-        MeshPart.running = background.start(
-            translate("FeatureExtract", "Mesh part with feature rules"),
-            translate("FeatureExtract", "Meshing {name} with {n} feature(s)...").format(name=target.Label, n=len(dirs)),
-            lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), done)
+        self.start(translate("FeatureExtract", "Mesh part with feature rules"),
+                   translate("FeatureExtract", "Meshing {name} with {n} feature(s)...").format(name=target.Label, n=len(dirs)),
+                   lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), meshed)
 
 
 def _picked_faces():
@@ -306,15 +307,13 @@ class AddToLibrary(BackgroundCommand):
     feature.json, thumbnail), made in the background by `featureextract library add`. The document is
     not changed."""
 
-    running = None
-
     def GetResources(self):
         return {"Pixmap": icon("AddToLibrary"), "MenuText": translate("FeatureExtract", "Add picked faces to the library"),
                 "ToolTip": translate("FeatureExtract", "Make the faces selected on a solid a new feature of the feature library, "
                                                        "with an FE mesh and a thumbnail")}
 
     def Activated(self, name=None, cls="", description="", lib=None, done=None):
-        from . import background, library
+        from . import library
         obj, faces = _picked_faces()
         if obj is None:
             report_error(faces)
@@ -336,22 +335,14 @@ class AddToLibrary(BackgroundCommand):
             report_error(str(e))
             return
 
-        def finished(kind, value):
-            AddToLibrary.running = None
-            if kind == "ok":
-                App.Console.PrintMessage(f"FeatureExtract: {name.strip()} ({len(faces)} faces of {obj.Label}) added to "
-                                         f"the library {lib} as {value}\n")
-            elif kind == "error":
-                report_error(value)
-            else:
-                App.Console.PrintMessage("FeatureExtract: cancelled; nothing was added.\n")
-            if done is not None:
-                done(kind, value)
+        def added(folder):
+            App.Console.PrintMessage(f"FeatureExtract: {name.strip()} ({len(faces)} faces of {obj.Label}) added to "
+                                     f"the library {lib} as {folder}\n")
 
-        AddToLibrary.running = background.start(
-            translate("FeatureExtract", "Add picked faces to the library"),
-            translate("FeatureExtract", "Meshing {name} for the library...").format(name=name.strip()),
-            lambda progress: library.add_faces(obj, faces, name, lib, cls, description, progress=progress), finished)
+        self.start(translate("FeatureExtract", "Add picked faces to the library"),
+                   translate("FeatureExtract", "Meshing {name} for the library...").format(name=name.strip()),
+                   lambda progress: library.add_faces(obj, faces, name, lib, cls, description, progress=progress), added,
+                   cancelled="nothing was added", done=done)
 
 
 class SearchLibrary(BackgroundCommand):
@@ -359,15 +350,13 @@ class SearchLibrary(BackgroundCommand):
     dialog with Cancel), then records one result group per feature found, colored per feature, by a
     recorded `library.search(...)` call."""
 
-    running = None
-
     def GetResources(self):
         return {"Pixmap": icon("SearchLibrary"), "MenuText": translate("FeatureExtract", "Search the part with the library"),
                 "ToolTip": translate("FeatureExtract", "Find every instance of every feature of the feature library on the "
                                                        "selected solid; one result group per feature, in its own color")}
 
     def Activated(self, lib=None, done=None):
-        from . import api, background, library
+        from . import api, library
         target = _selected_solid() or _only_solid(App.ActiveDocument)
         if target is None:
             report_error(translate("FeatureExtract", "Select the solid to search."))
@@ -380,24 +369,15 @@ class SearchLibrary(BackgroundCommand):
             report_error(str(e))
             return
 
-        def finished(kind, value):
-            SearchLibrary.running = None
-            if kind == "ok":
-                _do(f"freecad.feature_extract.library.search(App.getDocument('{target.Document.Name}')"
-                    f".getObject('{target.Name}'), {lib!r})", module="freecad.feature_extract.library")
-                for line in library.summary(value):
-                    App.Console.PrintMessage(f"FeatureExtract: {target.Label}: {line}\n")
-            elif kind == "error":
-                report_error(value)
-            else:
-                App.Console.PrintMessage("FeatureExtract: cancelled; the document was not changed.\n")
-            if done is not None:
-                done(kind, value)
+        def searched(result):
+            _do(f"freecad.feature_extract.library.search(App.getDocument('{target.Document.Name}')"
+                f".getObject('{target.Name}'), {lib!r})", module="freecad.feature_extract.library")
+            for line in library.summary(result):
+                App.Console.PrintMessage(f"FeatureExtract: {target.Label}: {line}\n")
 
-        SearchLibrary.running = background.start(
-            translate("FeatureExtract", "Search the part with the library"),
-            translate("FeatureExtract", "Searching {name} for {n} features...").format(name=target.Label, n=len(names)),
-            lambda progress: library.compute(target, lib, progress=progress, shape=shape), finished)
+        self.start(translate("FeatureExtract", "Search the part with the library"),
+                   translate("FeatureExtract", "Searching {name} for {n} features...").format(name=target.Label, n=len(names)),
+                   lambda progress: library.compute(target, lib, progress=progress, shape=shape), searched, done=done)
 
 
 class Library:
