@@ -347,7 +347,8 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
         f, ref = feats[i], refs[i]
         if progress:
             progress(n, len(feats), f["name"])
-        entry = {"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "matches": [], "error": None}
+        entry = {"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "rules": rule_text(f["spec"]),
+                 "matches": [], "error": None}
         t1 = time.monotonic()
         try:
             p = search_params(fxm, f, overrides)

@@ -330,7 +330,7 @@ class AddToLibrary(BackgroundCommand):
             report_error(translate("FeatureExtract", "A library feature needs a name."))
             return
         try:
-            library._face_numbers(obj, faces)  # a bad selection is said now, not after the child ran
+            library.face_numbers(obj, faces)  # a bad selection is said now, not after the child ran
         except Exception as e:  # noqa: BLE001
             report_error(str(e))
             return

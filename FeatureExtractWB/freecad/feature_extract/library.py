@@ -44,8 +44,9 @@ def features(library=None):
         raise FeatureExtractError(f"{library}: the library listing is not readable ({e})")
 
 
-def _face_numbers(source_obj, faces):
-    n = len(target_shape(source_obj).Faces)
+def face_numbers(source_obj, faces, shape=None):
+    """The FaceN names as numbers, each checked against source_obj's faces (one clear sentence if not)."""
+    n = len((shape if shape is not None else target_shape(source_obj)).Faces)
     numbers = []
     for f in faces:
         if not (isinstance(f, str) and f.startswith("Face") and f[4:].isdigit()) or not 1 <= int(f[4:]) <= n:
@@ -60,11 +61,10 @@ def add_faces(source_obj, faces, name, library=None, cls="", description="", siz
     library = library or default_library()
     if not name or not name.strip():
         raise FeatureExtractError("a library feature needs a name")
-    numbers = _face_numbers(source_obj, faces)
-    work = tempfile.mkdtemp(prefix="fe_library_add_")
-    brep = os.path.join(work, "part.brep")
-    target_shape(source_obj).exportBrep(brep)
-    before = {f["dir"] for f in features(library)} if os.path.isdir(library) and _has_features(library) else set()
+    shape = target_shape(source_obj)
+    numbers = face_numbers(source_obj, faces, shape)
+    brep = os.path.join(tempfile.mkdtemp(prefix="fe_library_add_"), "part.brep")
+    shape.exportBrep(brep)
     cmd = ["library", "add", library, "--from", brep, "--faces", ",".join(map(str, numbers)), "--name", name.strip()]
     if cls:
         cmd += ["--class", cls]
@@ -72,15 +72,10 @@ def add_faces(source_obj, faces, name, library=None, cls="", description="", siz
         cmd += ["--description", description]
     if size:
         cmd += ["--size", repr(float(size))]
-    run_cli(cmd, progress)
-    added = [f["dir"] for f in features(library) if f["dir"] not in before]
-    if not added:
+    said = run_cli(cmd, progress).strip().splitlines()  # "featureextract library add: NAME (...) -> FOLDER"
+    if not said or " -> " not in said[-1]:
         raise FeatureExtractError(f"{library}: {name!r} was not added")
-    return added[0]
-
-
-def _has_features(library):
-    return any(os.path.isfile(os.path.join(library, d, "feature.json")) for d in os.listdir(library))
+    return os.path.abspath(said[-1].rsplit(" -> ", 1)[1])
 
 
 def compute(target_obj, library=None, progress=None, seed=1, shape=None):
@@ -168,7 +163,7 @@ def add_results(target_obj, result):
             g.addProperty("App::PropertyString", "FeatureFolder", "Library", "The feature's folder")
             g.addProperty("App::PropertyString", "Rules", "Library", "The feature's meshing rules")
             g.Target, g.LibraryFeature, g.FeatureFolder = target_obj, f["name"], f["dir"]
-            g.Rules = "; ".join(r.get("text", "") for r in _rules(f["dir"]))
+            g.Rules = f.get("rules", "")
             objs = api.add_match_objects(target_obj, None, f"library: {f['name']}", f["matches"], created,
                                          color=PALETTE[k % len(PALETTE)])
             top.addObject(g)
@@ -187,15 +182,6 @@ def add_results(target_obj, result):
         from .objects import recolor
         recolor(target_obj)
     return [g for g, _ in new_groups]
-
-
-def _rules(folder):
-    try:
-        with open(os.path.join(folder, "feature.json"), encoding="utf-8") as f:
-            rules = json.load(f).get("rules", [])
-        return [r for r in rules if isinstance(r, dict)]
-    except (OSError, ValueError):
-        return []
 
 
 def search(target_obj, library=None, progress=None, seed=1):
