@@ -23,6 +23,7 @@ tuning; only development cases may be looked at while tuning.
 """
 import argparse
 import hashlib
+import itertools
 import json
 import os
 import re
@@ -232,6 +233,60 @@ def in_range(ref_shape, ref_faces, scale, shape, instances, lo=0.5, hi=2.0):
     return out
 
 
+def _pattern(n, eps=0.05):
+    """Signed support of a normal: per axis its sign, 0 where the component is under eps."""
+    return tuple(0 if abs(c) < eps else (1 if c > 0 else -1) for c in (n.x, n.y, n.z))
+
+
+def _face_patterns(shape, faces):
+    out = set()
+    for f in faces:
+        F = shape.getElement(f)
+        u0, u1, v0, v1 = F.ParameterRange
+        out.add(_pattern(F.normalAt((u0 + u1) / 2, (v0 + v1) / 2)))
+    return out
+
+
+def _signed_permutations():
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1, -1), repeat=3):
+            yield perm, signs
+
+
+def in_range_axes(ref_shape, ref_faces, scale, shape, instances, lo=0.5, hi=2.0):
+    """Per instance: within lo..hi times the reference along each of its own axes? An instance is
+    matched to the reference by the axis-aligned rotations and reflections (signed permutations) that
+    carry the reference faces' normal directions (their signs per axis) onto the instance's: a pocket's
+    depth then stays its depth, while a step's floor and wall, which a reflection swaps, may swap. In
+    range when one of them gives every axis an extent ratio within lo..hi. Where none carries the
+    normals over (curved faces, faces cut differently), the sorted extents decide, as in_range."""
+    rb = bbox_of(ref_shape, ref_faces)
+    r = [scale * rb.XLength, scale * rb.YLength, scale * rb.ZLength]
+    rp = _face_patterns(ref_shape, ref_faces)
+    sorted_ok = in_range(ref_shape, ref_faces, scale, shape, instances, lo, hi)
+    out = []
+    for k, f in enumerate(instances):
+        b = bbox_of(shape, f)
+        e = [b.XLength, b.YLength, b.ZLength]
+        ip = _face_patterns(shape, f)
+        matched, ok = False, False
+        for perm, signs in _signed_permutations():
+            mapped = set()
+            for q in rp:
+                t = [0, 0, 0]
+                for a in range(3):
+                    t[perm[a]] = signs[a] * q[a]
+                mapped.add(tuple(t))
+            if mapped != ip:
+                continue
+            matched = True
+            if all(lo <= (e[perm[a]] + 1e-9) / (r[a] + 1e-9) <= hi for a in range(3)):
+                ok = True
+                break
+        out.append(ok if matched else sorted_ok[k])
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -285,7 +340,9 @@ def main():
                 row = {"case": name, "style": style, "variant": variant, "split": split(name),
                        "instances": len(instances), "seconds": round(sec, 2)}
                 if p.returncode != 0:
-                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances[0], scale, tshape, instances)), found_in_range=0, error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
+                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances[0], scale, tshape, instances)), found_in_range=0,
+                               in_range_axes=sum(in_range_axes(shape, instances[0], scale, tshape, instances)), found_in_range_axes=0,
+                               hit=[0] * len(instances), error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
                 else:
                     r = json.load(open(out))
                     tp, fp, mir, hit, labels = score(r, tshape, instances)
@@ -299,6 +356,9 @@ def main():
                     rng = in_range(shape, instances[0], scale, tshape, instances)
                     row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
                                in_range=sum(rng), found_in_range=sum(1 for h, g in zip(hit, rng) if h and g))
+                    axes = in_range_axes(shape, instances[0], scale, tshape, instances)
+                    row.update(in_range_axes=sum(axes), found_in_range_axes=sum(1 for h, g in zip(hit, axes) if h and g),
+                               hit=[1 if h else 0 for h in hit])
                 rows.append(row)
                 if a.out:  # after every run, so that an interrupted run keeps what it measured
                     json.dump(rows, open(a.out, "w"), indent=1)
@@ -335,20 +395,23 @@ def summarize(rows):
     groups = {}
     for r in rows:
         for key in [(r["split"], r["style"], r["variant"]), (r["split"], r["style"], "all"), (r["split"], "all", "all")]:
-            g = groups.setdefault(key, [0, 0, 0, 0, 0, 0])
+            g = groups.setdefault(key, [0] * 8)
             g[0] += r["found"]
             g[1] += r["instances"]
             g[2] += r["false"]
             g[3] += 1
             g[4] += r["found_in_range"]
             g[5] += r["in_range"]
-    lines = ["| split | style | variant | runs | found | recall | false | precision | recall within 0.5-2x |",
-             "|---|---|---|---|---|---|---|---|---|"]
+            g[6] += r.get("found_in_range_axes", 0)
+            g[7] += r.get("in_range_axes", 0)
+    axes = all("in_range_axes" in r for r in rows)  # rows from before the per-axis count have none
+    lines = ["| split | style | variant | runs | found | recall | false | precision | recall within 0.5-2x |" + (" per axis |" if axes else ""),
+             "|---|---|---|---|---|---|---|---|---|" + ("---|" if axes else "")]
     for k in sorted(groups):
-        f, n, fp, runs, fr, nr = groups[k]
+        f, n, fp, runs, fr, nr, fa, na = groups[k]
         prec = f / (f + fp) if f + fp else 1.0
         lines.append(f"| {k[0]} | {k[1]} | {k[2]} | {runs} | {f} of {n} | {f / n if n else 0:.2f} | {fp} | {prec:.2f} | "
-                     f"{fr / nr if nr else 0:.2f} ({fr} of {nr}) |")
+                     f"{fr / nr if nr else 0:.2f} ({fr} of {nr}) |" + (f" {fa / na if na else 0:.2f} ({fa} of {na}) |" if axes else ""))
     return "\n".join(lines)
 
 
