@@ -1,0 +1,54 @@
+// The covered target region (coverage.h).
+#include "coverage.h"
+
+#include <Eigen/Geometry>  // .cross()
+
+namespace fe {
+
+bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, const ShapeDescription::Impl& T,
+                  const TriangleMesh& tmesh, double face_coverage, Instance& inst) {
+  Match& mt = inst.match;
+  const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(reach);
+  const Eigen::Vector3d hi = mapped.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(reach);
+  for (Eigen::Index j = 0; j < T.dense.points.rows(); ++j) {
+    const Eigen::Vector3d q = T.dense.points.row(j);
+    if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
+    double d2;
+    mapped_tree.nearest(q, &d2);
+    if (std::sqrt(d2) <= reach) inst.covered.push_back(static_cast<int>(j));
+  }
+  if (inst.covered.empty()) return false;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero(), bmin = Eigen::Vector3d::Constant(INFINITY), bmax = -bmin;
+  for (int j : inst.covered) {
+    const Eigen::Vector3d q = T.dense.points.row(j);
+    c += q;
+    bmin = bmin.cwiseMin(q);
+    bmax = bmax.cwiseMax(q);
+  }
+  mt.center = c / static_cast<double>(inst.covered.size());
+  mt.bbox_min = bmin;
+  mt.bbox_max = bmax;
+  // Faces and triangles: covered area per face (triangle centroids near the mapped reference).
+  std::vector<double> face_area(static_cast<std::size_t>(tmesh.num_faces + 1), 0.0), face_cov(face_area.size(), 0.0);
+  for (Eigen::Index t = 0; t < tmesh.triangles.rows(); ++t) {
+    const Eigen::Vector3d a = tmesh.vertices.row(tmesh.triangles(t, 0)), b = tmesh.vertices.row(tmesh.triangles(t, 1)),
+                          e = tmesh.vertices.row(tmesh.triangles(t, 2));
+    const double area = 0.5 * (b - a).cross(e - a).norm();
+    const int f = tmesh.face_ids.size() ? tmesh.face_ids(t) : 0;
+    if (f > 0 && f <= tmesh.num_faces) face_area[static_cast<std::size_t>(f)] += area;
+    const Eigen::Vector3d g = (a + b + e) / 3.0;
+    if ((g.array() < lo.array()).any() || (g.array() > hi.array()).any()) continue;
+    double d2;
+    mapped_tree.nearest(g, &d2);
+    if (std::sqrt(d2) > reach) continue;
+    if (f > 0 && f <= tmesh.num_faces) face_cov[static_cast<std::size_t>(f)] += area;
+    if (!tmesh.from_brep()) mt.triangles.push_back(static_cast<int>(t));
+  }
+  for (int f = 1; f <= tmesh.num_faces; ++f)
+    if (face_area[static_cast<std::size_t>(f)] > 0 &&
+        face_cov[static_cast<std::size_t>(f)] >= face_coverage * face_area[static_cast<std::size_t>(f)])
+      mt.faces.push_back(f);
+  return true;
+}
+
+}  // namespace fe

@@ -1,0 +1,268 @@
+// The paper's steps 1-3 for one shape (describe()), and the surface distances the matching stages
+// measure on a description.
+#include "description.h"
+
+#include "featureextract/geometry.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace fe {
+
+ShapeStats ShapeDescription::stats() const { return impl_ ? impl_->stats : ShapeStats{}; }
+double ShapeDescription::feature_size() const { return impl_ ? impl_->L : 0.0; }
+ShapeDescription::Role ShapeDescription::role() const { return impl_ ? impl_->role : Role::Target; }
+std::vector<std::pair<std::string, double>> ShapeDescription::timings() const { return impl_ ? impl_->timings : decltype(impl_->timings){}; }
+const Points& ShapeDescription::dense_points() const { return impl_->dense.points; }
+const Points& ShapeDescription::sparse_points() const { return impl_->sparse_points; }
+const Points& ShapeDescription::key_points() const { return impl_->keys; }
+const Eigen::VectorXd& ShapeDescription::key_shape_index() const { return impl_->key_si; }
+std::vector<std::string> ShapeDescription::warnings() const { return impl_ ? impl_->warnings : std::vector<std::string>{}; }
+
+void report(const ProgressFn& progress, const std::string& stage, double f) {
+  if (progress && !progress(stage, std::min(1.0, std::max(0.0, f)))) throw Cancelled();
+}
+
+void set_threads(const Params& p) {
+#ifdef _OPENMP
+  omp_set_num_threads(p.threads > 0 ? p.threads : omp_get_num_procs());
+#endif
+}
+
+std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& p) {
+  return {{"dense_spacing", p.dense_spacing},         {"sparse_spacing", p.sparse_spacing},
+          {"max_dense_points", static_cast<double>(p.max_dense_points)},
+          {"normal_radius", p.normal_radius},         {"curvature_radius", p.curvature_radius},
+          {"planar_curvedness", p.planar_curvedness}, {"shot_radius", p.shot_radius},
+          {"shot_radii", p.shot_radii},               {"shot_radius_ratio", p.shot_radius_ratio},
+          {"si_band", p.si_band},                     {"ridge_rut_spacing", p.ridge_rut_spacing},
+          {"crease_key_points", p.crease_key_points ? 1.0 : 0.0}};
+}
+
+namespace {
+
+double mesh_area(const TriangleMesh& m) {
+  double a = 0;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const Eigen::Vector3d p = m.vertices.row(m.triangles(t, 0)), q = m.vertices.row(m.triangles(t, 1)),
+                          r = m.vertices.row(m.triangles(t, 2));
+    a += 0.5 * (q - p).cross(r - p).norm();
+  }
+  return a;
+}
+
+int ladder_steps(double scale, double ratio) {
+  return std::max(0, static_cast<int>(std::ceil(std::log(scale) / std::log(ratio) - 1e-9)));
+}
+
+}  // namespace
+
+ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
+                          const ProgressFn& progress) {
+  p.validate();
+  set_threads(p);
+  if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("describe: feature size must be > 0");
+  auto d = std::make_shared<ShapeDescription::Impl>();
+  d->role = role;
+  d->L = L;
+  d->params = p;
+  const bool is_ref = role == ShapeDescription::Role::Reference;
+  const std::string who = is_ref ? "reference" : "target";
+  const std::string& name = mesh.source.empty() ? who : mesh.source;
+  Stopwatch sw;
+
+  // Step 1: dense and sparse samples.
+  report(progress, who + ": sampling", 0);
+  d->dense_h = p.dense_spacing * L;
+  d->sparse_h = p.sparse_spacing * L;
+  const double area = mesh_area(mesh);
+  const double expected = area / (d->dense_h * d->dense_h);
+  if (expected > static_cast<double>(p.max_dense_points)) {
+    const double f = std::sqrt(expected / static_cast<double>(p.max_dense_points));
+    if (f > 10) {
+      // Samples 10x coarser than the feature needs cannot show it: refuse instead of working long for
+      // nothing (a 10 mm boss on a 4 m part, or coordinates corrupted along one axis).
+      std::ostringstream m;
+      m.precision(3);
+      m << name << ": the surface is too large for a feature of this size (area " << area << ", " << area / (L * L)
+        << " times the feature's squared size): the samples would be " << f
+        << "x coarser than the feature needs; search a region of the part, or raise max_dense_points";
+      throw InputError(m.str());
+    }
+    d->dense_h *= f;
+    d->sparse_h = std::max(d->sparse_h, 2.5 * d->dense_h);
+    std::ostringstream w;
+    w << name << ": surface too large for the dense spacing (" << static_cast<long long>(expected)
+      << " samples > max_dense_points); spacing increased " << f << "x, small features may be missed";
+    d->warnings.push_back(w.str());
+  }
+  d->dense = sample_surface(mesh, d->dense_h, p.seed);
+  const Samples sparse = sample_surface(mesh, d->sparse_h, p.seed + 1);
+  d->box_min = mesh.vertices.colwise().minCoeff();
+  d->box_max = mesh.vertices.colwise().maxCoeff();
+  d->timings.push_back({who + "_sampling", sw.lap()});
+
+  // Step 2a: normals (PCA over dense samples, oriented by the triangles).
+  report(progress, who + ": normals", 0);
+  const double rn = p.normal_radius * L;
+  d->dense_normals = estimate_normals(d->dense, d->dense, rn);
+  const Points sparse_normals = estimate_normals(d->dense, sparse, rn);
+  d->timings.push_back({who + "_normals", sw.lap()});
+
+  // Step 2b + 3: shape index at sparse samples, key points.
+  report(progress, who + ": shape index", 0);
+  const Eigen::MatrixX2d k = principal_curvatures(d->dense.points, d->dense_normals, sparse.points, sparse_normals, p.curvature_radius * L);
+  std::vector<Eigen::Index> key;
+  std::vector<double> key_si;
+  // Ridge and rut points (cylinders: holes, lugs, bosses, fillets) are not key points in the paper;
+  // with ridge_rut_spacing > 0 they are kept too, thinned to one per cube of that size, so that
+  // features made of cylinders still have key points without flooding the matching.
+  std::unordered_map<std::uint64_t, char> ridge_cells;
+  const double ridge_h = p.ridge_rut_spacing * L;
+  const Eigen::Vector3d origin = sparse.points.size() ? Eigen::Vector3d(sparse.points.colwise().minCoeff()) : Eigen::Vector3d::Zero();
+  // Sharp creases (machined features: planes meeting at edges and corners) look planar to the quadric
+  // fit over same-side neighbours; there the crease's own shape index is used, offset so that sharp
+  // and filleted shapes stay apart (kCreaseShapeIndex).
+  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(d->dense, sparse, p.curvature_radius * L)
+                                                     : Eigen::VectorXd::Constant(k.rows(), std::numeric_limits<double>::quiet_NaN());
+  for (Eigen::Index i = 0; i < k.rows(); ++i) {
+    double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
+    if ((si == kPlanarShapeIndex || !std::isfinite(si)) && std::isfinite(crease(i))) si = kCreaseShapeIndex + crease(i);
+    bool take = is_key_shape_index(si, p.si_band);
+    if (!take && ridge_h > 0 && si >= 0) {
+      const Eigen::Vector3d g = ((sparse.points.row(i).transpose() - origin) / ridge_h).array().floor();
+      const std::uint64_t cell = (static_cast<std::uint64_t>(g.x()) & 0x1FFFFF) << 42 |
+                                 (static_cast<std::uint64_t>(g.y()) & 0x1FFFFF) << 21 | (static_cast<std::uint64_t>(g.z()) & 0x1FFFFF);
+      take = ridge_cells.emplace(cell, 1).second;
+    }
+    if (take) {
+      key.push_back(i);
+      key_si.push_back(si);
+    }
+  }
+  d->timings.push_back({who + "_shape_index", sw.lap()});
+
+  // Step 2c: multi-radius SHOT at key points, dense samples as support.
+  d->m = p.shot_radii;
+  if (!is_ref) {
+    d->D = ladder_steps(1.0 / p.scale_min, p.shot_radius_ratio);
+    d->U = ladder_steps(p.scale_max, p.shot_radius_ratio);
+  }
+  std::vector<double> radii;
+  for (int r = -d->D; r < d->m + d->U; ++r) radii.push_back(p.shot_radius * L * std::pow(p.shot_radius_ratio, r));
+  Points keys(static_cast<Eigen::Index>(key.size()), 3), key_n(static_cast<Eigen::Index>(key.size()), 3);
+  for (std::size_t i = 0; i < key.size(); ++i) {
+    keys.row(static_cast<Eigen::Index>(i)) = sparse.points.row(key[i]);
+    key_n.row(static_cast<Eigen::Index>(i)) = sparse_normals.row(key[i]);
+  }
+  report(progress, who + ": SHOT descriptors", 0);
+  ShotSet shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, [&](std::size_t r) {
+    return !progress || progress(who + ": SHOT descriptors", static_cast<double>(r + 1) / static_cast<double>(radii.size()));
+  });
+  // Drop key points without any finite descriptor (paper: non-finite descriptors are not matched).
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < keys.rows(); ++i)
+    if (shot.valid.row(i).any()) keep.push_back(i);
+  d->keys.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  d->key_normals.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  d->key_si.resize(static_cast<Eigen::Index>(keep.size()));
+  d->shot.desc.resize(static_cast<Eigen::Index>(keep.size()), shot.desc.cols());
+  d->shot.valid.resize(static_cast<Eigen::Index>(keep.size()), shot.valid.cols());
+  d->shot.lrf.resize(static_cast<Eigen::Index>(keep.size()), shot.lrf.cols());
+  for (std::size_t a = 0; a < keep.size(); ++a) {
+    const Eigen::Index i = keep[a], r = static_cast<Eigen::Index>(a);
+    d->keys.row(r) = keys.row(i);
+    d->key_normals.row(r) = key_n.row(i);
+    d->key_si(r) = key_si[static_cast<std::size_t>(i)];
+    d->shot.desc.row(r) = shot.desc.row(i);
+    d->shot.valid.row(r) = shot.valid.row(i);
+    d->shot.lrf.row(r) = shot.lrf.row(i);
+  }
+  d->timings.push_back({who + "_shot", sw.lap()});
+  d->dense_tree = std::make_shared<KdTree3>(d->dense.points);
+  d->sparse_points = sparse.points;
+
+  ShapeStats& s = d->stats;
+  s.triangles = static_cast<std::size_t>(mesh.triangles.rows());
+  s.faces = static_cast<std::size_t>(mesh.num_faces);
+  s.dense_points = d->dense.size();
+  s.sparse_points = sparse.size();
+  s.key_points = key.size();
+  s.descriptors = keep.size();
+  s.dropped_degenerate = mesh.dropped_degenerate;
+  s.diagonal = mesh.diagonal();
+
+  if (is_ref) {
+    int full = 0;
+    for (Eigen::Index i = 0; i < d->shot.valid.rows(); ++i) full += d->shot.valid.row(i).head(d->m).all() ? 1 : 0;
+    if (full < 5) {
+      std::ostringstream e;
+      e << name << ": reference has no distinctive key points (" << full << " with descriptors, need 5)";
+      if (p.ridge_rut_spacing > 0)
+        e << ", not even on ridges and ruts: it is one plane, or too small for the sampling";
+      else
+        e << ": it is planar, or only ridges and ruts; pick a feature with corners, caps or saddles";
+      throw NoKeyPoints(e.str());
+    }
+  }
+  return ShapeDescription(d);
+}
+
+namespace {
+// surface_distance measured at dense sample j, which lies d2 (squared) from p.
+double distance_at_sample(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int j, double d2) {
+  const Eigen::Vector3d q = t.dense.points.row(j), n = t.dense_normals.row(j);
+  const double dn = std::abs((p - q).dot(n));
+  const double dt = std::sqrt(std::max(0.0, d2 - dn * dn));
+  const double over = std::max(0.0, dt - t.dense_h);
+  return std::sqrt(dn * dn + over * over);
+}
+
+}  // namespace
+
+double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int* nearest) {
+  double d2;
+  const int j = t.dense_tree->nearest(p, &d2);
+  if (nearest) *nearest = j;
+  if (j < 0 || !std::isfinite(d2)) return INFINITY;
+  return distance_at_sample(t, p, j, d2);
+}
+
+// surface_distance where only values below `cap` matter (errors truncated at a penalty): the same
+// value and nearest sample whenever the distance is below cap; cap itself, with *nearest = -1, when no
+// sample lies near enough for it to be (the tangential offset counts only beyond one spacing h, so the
+// distance is at least the nearest sample's minus h). Far points stop the tree search early.
+double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, double cap, int* nearest) {
+  *nearest = -1;
+  if (!p.allFinite() || t.dense_tree->size() == 0) return INFINITY;
+  double d2;
+  const int j = t.dense_tree->nearest_within(p, 1.01 * (cap + t.dense_h), &d2);
+  if (j < 0) return cap;
+  *nearest = j;
+  return distance_at_sample(t, p, j, d2);
+}
+
+// Deterministic subsample of at most n row indices.
+std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n) {
+  std::vector<Eigen::Index> r;
+  const double step = std::max(1.0, static_cast<double>(rows) / static_cast<double>(n));
+  for (double x = 0; x < static_cast<double>(rows); x += step) r.push_back(static_cast<Eigen::Index>(x));
+  return r;
+}
+
+std::vector<Eigen::Index> stride_subset(const std::vector<Eigen::Index>& rows, Eigen::Index n) {
+  std::vector<Eigen::Index> r;
+  for (Eigen::Index i : stride_rows(static_cast<Eigen::Index>(rows.size()), n)) r.push_back(rows[static_cast<std::size_t>(i)]);
+  return r;
+}
+
+}  // namespace fe

@@ -1,0 +1,77 @@
+// Internal: what describe() computes for a shape (the paper's steps 1-3), and the small tools the
+// matching stages (match() in extract.cpp, hypothesis.h, refine.h, ...) share to use it.
+#pragma once
+
+#include "featureextract/extract.h"
+#include "kdtree.h"
+#include "shot.h"
+
+#include <chrono>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace fe {
+
+struct ShapeDescription::Impl {
+  Role role = Role::Target;
+  double L = 0;          // feature size (reference diagonal)
+  Params params;
+  double dense_h = 0, sparse_h = 0;
+  Samples dense;
+  Points dense_normals;  // PCA normals of the dense samples
+  std::shared_ptr<KdTree3> dense_tree;
+  Points sparse_points;
+  Points keys, key_normals;
+  Eigen::VectorXd key_si;
+  ShotSet shot;
+  int m = 0, D = 0, U = 0;  // radii per descriptor; target ladder steps below / above
+  Eigen::Vector3d box_min, box_max;
+  ShapeStats stats;
+  std::vector<std::pair<std::string, double>> timings;
+  std::vector<std::string> warnings;
+};
+
+/// The reference has too few of the paper's key points (the search's fallback tries ridge and rut points).
+struct NoKeyPoints : InputError {
+  using InputError::InputError;
+};
+
+/// The parameters that shape a description (steps 1-3) besides the feature size, the seed and (for
+/// a target) the scale range: match() requires them equal, and they key PreparedTarget's cache.
+std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& p);
+
+/// Progress report of a stage (fraction clamped to 0..1); throws Cancelled when the callback says stop.
+void report(const ProgressFn& progress, const std::string& stage, double f);
+
+/// OpenMP's thread count from Params::threads (0: every core).
+void set_threads(const Params& p);
+
+struct Stopwatch {
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  double lap() {
+    const auto t = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(t - t0).count();
+    t0 = t;
+    return s;
+  }
+};
+
+/// Distance from p to a shape's sampled surface: point-to-plane at the nearest dense sample, with the
+/// tangential offset beyond one sample spacing added back (so points off the edge of a surface
+/// count). The nearest sample's index in *nearest (-1 if none); +inf for an empty shape.
+double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, int* nearest = nullptr);
+
+/// surface_distance where only values below `cap` matter (errors truncated at a penalty): the same
+/// value and nearest sample whenever the distance is below cap; cap itself, with *nearest = -1, when
+/// no sample lies near enough for it to be. Far points stop the tree search early.
+double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, double cap, int* nearest);
+
+/// Deterministic subsample of at most n of the row indices 0..rows-1 (evenly strided).
+std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n);
+
+/// At most n of `rows`, evenly strided.
+std::vector<Eigen::Index> stride_subset(const std::vector<Eigen::Index>& rows, Eigen::Index n);
+
+}  // namespace fe

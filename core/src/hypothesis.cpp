@@ -1,0 +1,282 @@
+// Hypothesis scoring and the acceptance checks (hypothesis.h).
+#include "hypothesis.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <numeric>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace fe {
+
+FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut) {
+  FeatureCore c;
+  if (!cut.any_side_cut()) return c;
+  const Eigen::Vector3d lo = reference.vertices.colwise().minCoeff(), hi = reference.vertices.colwise().maxCoeff();
+  c.lo = lo;
+  c.hi = hi;
+  for (int a = 0; a < 3; ++a) {
+    const double m = kContextMargin * (hi(a) - lo(a));
+    if (cut.cut_sides[static_cast<std::size_t>(2 * a)]) c.lo(a) = lo(a) + m;
+    if (cut.cut_sides[static_cast<std::size_t>(2 * a + 1)]) c.hi(a) = hi(a) - m;
+  }
+  c.set = true;
+  return c;
+}
+
+const char* deformation_outside(const Deformation& df, const Params& p) {
+  if (!(df.volume_ratio > 0) || !std::isfinite(df.perspective)) return "degenerate";
+  if (df.reflection && !p.allow_reflection) return "reflection";
+  if (df.volume_ratio < p.volume_ratio_min || df.volume_ratio > p.volume_ratio_max) return "volume_ratio";
+  if (df.scale_min < p.axis_scale_min || df.scale_max > p.axis_scale_max) return "axis_scale";
+  if (df.scale_max > p.max_anisotropy * df.scale_min) return "anisotropy";
+  if (df.perspective > p.max_perspective) return "perspective";
+  return nullptr;
+}
+
+bool Evidence::accepted() const {
+  return std::all_of(checks.begin(), checks.end(), [](const Check& c) { return c.passed; });
+}
+
+std::string Evidence::failed() const {
+  for (const Check& c : checks)
+    if (!c.passed) return c.name;
+  return "";
+}
+
+namespace {
+// Rows of x inside the feature core; all of them when too little would be left.
+std::vector<Eigen::Index> core_rows(const Points& x, const FeatureCore& core) {
+  std::vector<Eigen::Index> r;
+  for (Eigen::Index i = 0; i < x.rows(); ++i)
+    if (core.contains(x.row(i).transpose())) r.push_back(i);
+  if (r.size() < 20 || r.size() * 10 < static_cast<std::size_t>(x.rows())) {  // too little left: all is feature
+    r.resize(static_cast<std::size_t>(x.rows()));
+    std::iota(r.begin(), r.end(), Eigen::Index{0});
+  }
+  return r;
+}
+}  // namespace
+
+HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeDescription::Impl& T, const Params& p,
+                                   const FeatureCore& core)
+    : R_(R), T_(T), p_(p), L_(R.L) {
+  core_keys_ = core_rows(R.keys, core);
+  core_dense_ = core_rows(R.dense.points, core);
+  if (std::getenv("FE_DEBUG") && core.set)
+    std::fprintf(stderr, "debug: feature core (%.1f %.1f %.1f)..(%.1f %.1f %.1f): %zu of %ld key points, %zu of %zu dense samples\n", core.lo.x(), core.lo.y(),
+                 core.lo.z(), core.hi.x(), core.hi.y(), core.hi.z(), core_keys_.size(), static_cast<long>(R.keys.rows()), core_dense_.size(), R.dense.size());
+  // Points that judge a transform: the reference key points (paper) plus a fixed subsample of the
+  // reference's dense samples, so that a transform must lay the whole feature on the target, not only
+  // its corners; each with its normal, which must agree with the target's.
+  {
+    const std::vector<Eigen::Index> kr = stride_subset(core_keys_, 300);
+    const std::vector<Eigen::Index> dr = stride_subset(core_dense_, 300);
+    eval_pts_.resize(static_cast<Eigen::Index>(kr.size() + dr.size()), 3);
+    eval_nrm_.resize(eval_pts_.rows(), 3);
+    Eigen::Index k = 0;
+    for (Eigen::Index i : kr) { eval_pts_.row(k) = R.keys.row(i); eval_nrm_.row(k++) = R.key_normals.row(i); }
+    for (Eigen::Index i : dr) { eval_pts_.row(k) = R.dense.points.row(i); eval_nrm_.row(k++) = R.dense_normals.row(i); }
+  }
+  normal_penalty_ = 2.0 * p.accept_error * L_;
+  dense_rows_ = stride_subset(core_dense_, 1500);
+  rlo_ = R.keys.colwise().minCoeff();
+  rhi_ = R.keys.colwise().maxCoeff();
+  screen_rows_ = stride_rows(eval_pts_.rows(), 40);
+  tkey_tree_ = std::make_unique<KdTree3>(T.keys);
+  // Free space in front of the reference's surface (clearance.h), from its core samples.
+  const KdTree3& rtree = *R.dense_tree;
+  clearance_ = std::make_unique<Clearance>(R.dense.points, R.dense_normals, stride_subset(core_dense_, 400),
+                                           [&rtree](const Eigen::Vector3d& x) {
+                                             double d2;
+                                             return rtree.nearest(x, &d2) < 0 ? INFINITY : std::sqrt(d2);
+                                           },
+                                           R.box_min, R.box_max, R.dense_h, p.clearance_margin * L_);
+  // Whole faces (clearance.h): reference faces all of whose samples are feature, with enough samples
+  // to measure their area, must land on whole target faces.
+  if (R.dense.face_ids.size() && T.dense.face_ids.size() && p.max_partial_faces < 1) {
+    const int nf = std::max(R.dense.face_ids.maxCoeff(), 0) + 1;
+    std::vector<int> in_core(static_cast<std::size_t>(nf), 0), all(static_cast<std::size_t>(nf), 0);
+    for (Eigen::Index i = 0; i < R.dense.face_ids.size(); ++i) ++all[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
+    for (const Eigen::Index i : core_dense_) ++in_core[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
+    whole_faces_.checked.assign(static_cast<std::size_t>(nf), 0);
+    for (int f = 1; f < nf; ++f) whole_faces_.checked[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)] >= 20 && in_core[static_cast<std::size_t>(f)] == all[static_cast<std::size_t>(f)];
+    whole_faces_.reference = &R.dense;
+    whole_faces_.rows = core_dense_;
+    whole_faces_.reference_spacing = R.dense_h;
+    whole_faces_.target_faces = &T.dense.face_ids;
+    std::vector<std::vector<int>> on_face(static_cast<std::size_t>(std::max(T.dense.face_ids.maxCoeff(), 0) + 1));
+    for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
+      if (T.dense.face_ids(j) > 0) on_face[static_cast<std::size_t>(T.dense.face_ids(j))].push_back(static_cast<int>(j));
+    whole_faces_.target_area.resize(on_face.size());
+    face_rows_.resize(on_face.size());
+    for (std::size_t g = 0; g < on_face.size(); ++g) {
+      whole_faces_.target_area[g] = static_cast<double>(on_face[g].size()) * T.dense_h * T.dense_h;
+      for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(on_face[g].size()), 150)) face_rows_[g].push_back(on_face[g][static_cast<std::size_t>(k)]);
+    }
+    whole_faces_.target_nearest = [this](const Eigen::Vector3d& y, double* d) {
+      int j;
+      *d = target_distance(y, &j);
+      return j;
+    };
+  }
+}
+
+HypothesisScorer::~HypothesisScorer() = default;
+
+double HypothesisScorer::target_distance(const Eigen::Vector3d& y, int* j) const {
+  double d2;
+  const int k = T_.dense_tree->nearest(y, &d2);
+  if (j) *j = k;
+  return k < 0 ? INFINITY : std::sqrt(d2);
+}
+
+bool HypothesisScorer::bounds_ok(const Eigen::Matrix4d& H, double* scale) const {
+  const Deformation df = deformation(H, rlo_, rhi_);
+  if (deformation_outside(df, p_)) return false;
+  if (scale) *scale = std::cbrt(df.volume_ratio);
+  return true;
+}
+
+// Paper 3.8 (4)-(5): map the reference key points, error to the nearest dense target point;
+// the error of H is the maximum (or error_quantile) over them, divided by the scale of H.
+// Error of H at evaluation point i, in reference units (divided by the scale s of H): distance to
+// the target surface, or at least the normal penalty where the normals disagree; +inf off the
+// target. With `capped`, errors of the normal penalty or more may come back as the penalty (for the
+// sums that truncate there anyway): the same sums, with a search that stops at the penalty.
+double HypothesisScorer::point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped) const {
+  const Eigen::Vector3d x = eval_pts_.row(i);
+  int j;
+  double e;
+  if (capped) {
+    e = surface_distance_capped(T_, apply_transform(H, x), normal_penalty_ * s, &j) / s;
+    if (!std::isfinite(e)) return INFINITY;
+    if (j < 0) return normal_penalty_;
+  } else {
+    e = surface_distance(T_, apply_transform(H, x), &j) / s;
+    if (!std::isfinite(e) || j < 0) return INFINITY;
+  }
+  if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized().dot(T_.dense_normals.row(j)) < 0.5)
+    e = std::max(e, normal_penalty_);
+  return e;
+}
+
+bool HypothesisScorer::point_errors(const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped) const {
+  if (!std::isfinite(sum_limit) && !omp_in_parallel()) {  // nothing to stop early for: all threads
+    errs.assign(static_cast<std::size_t>(eval_pts_.rows()), 0.0);
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index i = 0; i < eval_pts_.rows(); ++i) errs[static_cast<std::size_t>(i)] = point_error(H, i, s, capped);
+    for (const double e : errs)
+      if (!std::isfinite(e)) return false;
+    return true;
+  }
+  errs.clear();
+  double sum = 0;
+  for (Eigen::Index i = 0; i < eval_pts_.rows(); ++i) {
+    const double e = point_error(H, i, s, capped);
+    if (!std::isfinite(e)) return false;
+    errs.push_back(e);
+    sum += std::min(e, normal_penalty_);
+    if (sum > sum_limit) return false;  // cannot beat the best any more
+  }
+  return true;
+}
+
+double HypothesisScorer::cost(const Eigen::Matrix4d& H, double limit) const {
+  double s;
+  if (!bounds_ok(H, &s)) return INFINITY;
+  thread_local std::vector<double> buf;
+  if (!point_errors(H, s, std::isfinite(limit) ? limit * static_cast<double>(eval_pts_.rows()) : INFINITY, buf, true)) return INFINITY;
+  double sum = 0;
+  for (double e : buf) sum += std::min(e, normal_penalty_);
+  return sum / static_cast<double>(buf.size());
+}
+
+double HypothesisScorer::screen_cost(const Eigen::Matrix4d& H, double s) const {
+  double sum = 0;
+  for (const Eigen::Index i : screen_rows_) {
+    const double e = point_error(H, i, s, true);
+    if (!std::isfinite(e)) return INFINITY;
+    sum += std::min(e, normal_penalty_);
+  }
+  return sum / static_cast<double>(std::max<std::size_t>(1, screen_rows_.size()));
+}
+
+double HypothesisScorer::quantile_error(const Eigen::Matrix4d& H) const {
+  double s;
+  std::vector<double> errs;
+  if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY, errs, false)) return INFINITY;
+  const std::size_t q = std::min(errs.size() - 1, static_cast<std::size_t>(p_.error_quantile * static_cast<double>(errs.size())));
+  std::nth_element(errs.begin(), errs.begin() + static_cast<long>(q), errs.end());
+  return errs[q];
+}
+
+double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
+  std::vector<double> e(dense_rows_.size());  // on all threads, summed in order
+#pragma omp parallel for schedule(static)
+  for (std::size_t k = 0; k < dense_rows_.size(); ++k) e[k] = surface_distance(T_, apply_transform(H, R_.dense.points.row(dense_rows_[k]).transpose()));
+  double sq = 0;
+  for (const double ek : e) sq += std::isfinite(ek) ? ek * ek : L_ * L_;
+  return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size())));
+}
+
+Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all) const {
+  Evidence ev;
+  ev.error = quantile_error(H);
+  const double tol = p_.accept_error * L_ * s;
+  ev.tolerance = tol;
+  // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.
+  ev.mapped.resize(static_cast<Eigen::Index>(dense_rows_.size()), 3);
+  int on = 0;
+  double sq = 0;
+  bool finite_map = true;  // false when H's plane at infinity cuts the reference feature
+  for (std::size_t k = 0; k < dense_rows_.size(); ++k) {
+    const Eigen::Vector3d x = R_.dense.points.row(dense_rows_[k]);
+    const Eigen::Vector3d y = apply_transform(H, x);
+    finite_map = finite_map && y.allFinite();
+    ev.mapped.row(static_cast<Eigen::Index>(k)) = y;
+    int j;
+    const double e = surface_distance(T_, y, &j);
+    sq += std::isfinite(e) ? e * e : tol * tol * 100;
+    if (j < 0 || !(e <= tol)) continue;
+    const Eigen::Vector3d nr = R_.dense_normals.row(dense_rows_[k]);
+    const Eigen::Vector3d nm = transform_jacobian(H, x).inverse().transpose() * nr;
+    if (nm.normalized().dot(T_.dense_normals.row(j)) > 0.5) ++on;
+  }
+  ev.rms = std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size())));
+  ev.score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size()));
+  // Key point agreement (paper's shape index, used as a check): the reference key points must land
+  // near target key points of a similar shape index, not on plain or differently curved surface.
+  int agree = 0;
+  std::vector<int> near_keys;
+  std::vector<float> near_d2;
+  for (const Eigen::Index i : core_keys_) {
+    const Eigen::Vector3d y = apply_transform(H, R_.keys.row(i).transpose());
+    tkey_tree_->radius(y, tol + T_.sparse_h, near_keys, near_d2);
+    bool ok = false;
+    for (int j : near_keys) ok = ok || std::abs(T_.key_si(j) - R_.key_si(i)) <= p_.key_si_tolerance;
+    agree += ok ? 1 : 0;
+  }
+  ev.key_agreement = static_cast<double>(agree) / static_cast<double>(std::max<std::size_t>(1, core_keys_.size()));
+  ev.deformation = deformation(H, rlo_, rhi_);
+
+  ev.checks.push_back({"finite", finite_map ? 1.0 : 0.0, 1.0, finite_map});
+  ev.checks.push_back({"accept_error", ev.error, p_.accept_error * L_, ev.error <= p_.accept_error * L_});
+  ev.checks.push_back({"min_score", ev.score, p_.min_score, ev.score >= p_.min_score});
+  ev.checks.push_back({"min_key_agreement", ev.key_agreement, p_.min_key_agreement, ev.key_agreement >= p_.min_key_agreement});
+  // Free space in front of the reference (clearance.h), then whole faces on whole faces.
+  if ((ev.accepted() || all) && p_.max_obstructed < 1) {
+    ev.obstructed = clearance_->obstructed(H, [this](const Eigen::Vector3d& y) { return target_distance(y); }, 0.5 * s * R_.dense_h + T_.dense_h,
+                                           3 * R_.dense_h + 2 * ev.error);
+    ev.checks.push_back({"max_obstructed", ev.obstructed, p_.max_obstructed, ev.obstructed <= p_.max_obstructed});
+  }
+  if ((ev.accepted() || all) && whole_faces_.reference) {
+    ev.partial_faces = whole_faces_.partial_share(H, tol + T_.dense_h, kWholeFaceFill);
+    ev.checks.push_back({"max_partial_faces", ev.partial_faces, p_.max_partial_faces, ev.partial_faces <= p_.max_partial_faces});
+  }
+  return ev;
+}
+
+}  // namespace fe

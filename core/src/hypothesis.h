@@ -1,0 +1,128 @@
+// Internal: how a hypothesis (a 4x4 transform from the reference into the target) is scored and
+// judged (the paper's section 3.8 and 4.2, and the checks issue 9 added). RANSAC and the one-pair
+// placements select by cost(); the refinement follows it; a refined hypothesis is accepted when it
+// passes every check of evaluate(), one check per acceptance bound.
+#pragma once
+
+#include "description.h"
+#include "featureextract/clearance.h"
+#include "featureextract/geometry.h"
+#include "featureextract/reference.h"
+
+#include <Eigen/Core>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace fe {
+
+/// The part of a box-cut reference that is feature (issue 9): a user's box takes some of the part
+/// around the feature too, and that context need not be the same around every instance (FTC-10's
+/// ears: 4 of 4 found with a tight box, 2 of 4 with a box 20 % larger). Samples within
+/// kContextMargin of the extent of a cut side of the box are context: hypotheses are judged, refined
+/// and validated on the rest (the core). Not set: everything is feature (picked faces, an open STL
+/// region).
+struct FeatureCore {
+  bool set = false;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(-INFINITY), hi = Eigen::Vector3d::Constant(INFINITY);
+  bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
+};
+constexpr double kContextMargin = 0.2;
+FeatureCore feature_core(const TriangleMesh& reference, const CutFaces& cut);
+
+/// A target face covered less than this by the mapped reference is only partly the feature's
+/// (the whole-faces check): a step on 40 % of a slot's floor; a boss of other proportions covers 70 %.
+constexpr double kWholeFaceFill = 0.6;
+
+/// The first bound of Params that a deformation breaks ("reflection", "volume_ratio", "axis_scale",
+/// "anisotropy", "perspective", or "degenerate" for a map that folds or leaves the finite), or
+/// nullptr when it is within all of them.
+const char* deformation_outside(const Deformation& df, const Params& p);
+
+/// One acceptance check: a measured value against its bound.
+struct Check {
+  const char* name;  ///< the Params bound it applies ("accept_error", "min_score", ...)
+  double value, bound;
+  bool passed;
+};
+
+/// What a hypothesis was judged on.
+struct Evidence {
+  double error = INFINITY;  ///< acceptance error (error_quantile of the point errors), reference units
+  double tolerance = 0;     ///< accept_error L s: the error allowed in the target's units
+  double score = 0;         ///< share of the mapped dense samples on the target, normals agreeing
+  double key_agreement = 0; ///< share of the core key points landing near target key points of similar SI
+  double obstructed = 0;    ///< Clearance::obstructed (0 when not measured)
+  double partial_faces = 0; ///< FaceCoverCheck::partial_share (0 when not measured)
+  double rms = 0;           ///< RMS distance of the mapped dense samples to the target, target units
+  Deformation deformation;
+  Points mapped;            ///< the mapped dense subsample (HypothesisScorer::dense_rows)
+  std::vector<Check> checks;  ///< in order; the expensive ones only when the cheap ones pass (or asked)
+
+  bool accepted() const;
+  /// Name of the first failed check, or "" when accepted.
+  std::string failed() const;
+};
+
+/// Scores and judges hypotheses of one reference on one target. Safe to call from several threads
+/// (cost, screen_cost). Holds references to both descriptions and the parameters.
+class HypothesisScorer {
+ public:
+  HypothesisScorer(const ShapeDescription::Impl& R, const ShapeDescription::Impl& T, const Params& p, const FeatureCore& core);
+  HypothesisScorer(const HypothesisScorer&) = delete;
+  HypothesisScorer& operator=(const HypothesisScorer&) = delete;
+  ~HypothesisScorer();
+
+  /// H within the deformation bounds of Params (deformation_outside); its scale (cube root of the
+  /// volume ratio) in *scale.
+  bool bounds_ok(const Eigen::Matrix4d& H, double* scale) const;
+
+  /// Selection cost (RANSAC, refinement): mean point error truncated at the normal penalty (MSAC),
+  /// reference units; +inf out of bounds, off the target, or as soon as it cannot come under `limit`.
+  double cost(const Eigen::Matrix4d& H, double limit = INFINITY) const;
+  /// The truncated mean error over 40 of the evaluation points at scale s, no bounds test (one-pair
+  /// placements, before the refinement brings them within the bounds).
+  double screen_cost(const Eigen::Matrix4d& H, double s) const;
+  /// Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile), reference units.
+  double quantile_error(const Eigen::Matrix4d& H) const;
+  /// RMS distance of the mapped reference (dense subsample) to the target surface, target units.
+  double rms_on_surface(const Eigen::Matrix4d& H) const;
+
+  /// Every acceptance check of H at scale s. With `all`, the expensive checks (free space, whole
+  /// faces) are measured even after a cheap one failed (for the debug trace).
+  Evidence evaluate(const Eigen::Matrix4d& H, double s, bool all = false) const;
+
+  /// Distance from y to the nearest target dense sample (its index in *j).
+  double target_distance(const Eigen::Vector3d& y, int* j = nullptr) const;
+
+  double normal_penalty() const { return normal_penalty_; }
+  const std::vector<Eigen::Index>& core_keys() const { return core_keys_; }
+  const std::vector<Eigen::Index>& core_dense() const { return core_dense_; }
+  const std::vector<Eigen::Index>& dense_rows() const { return dense_rows_; }
+  const Eigen::Vector3d& key_box_min() const { return rlo_; }
+  const Eigen::Vector3d& key_box_max() const { return rhi_; }
+  /// The whole-faces check (reference == nullptr when the shapes have no B-rep faces, or it is off).
+  const FaceCoverCheck& whole_faces() const { return whole_faces_; }
+  /// Per target face: up to 150 of its dense samples (the refinement's reverse pairs).
+  const std::vector<std::vector<int>>& target_face_samples() const { return face_rows_; }
+
+ private:
+  double point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped) const;
+  bool point_errors(const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped) const;
+
+  const ShapeDescription::Impl& R_;
+  const ShapeDescription::Impl& T_;
+  const Params& p_;
+  double L_;
+  std::vector<Eigen::Index> core_keys_, core_dense_, dense_rows_, screen_rows_;
+  Points eval_pts_, eval_nrm_;  // reference key points and dense samples that judge a transform
+  double normal_penalty_;
+  Eigen::Vector3d rlo_, rhi_;
+  std::unique_ptr<Clearance> clearance_;
+  FaceCoverCheck whole_faces_;
+  std::vector<std::vector<int>> face_rows_;
+  std::unique_ptr<KdTree3> tkey_tree_;
+};
+
+}  // namespace fe

@@ -1,0 +1,75 @@
+// Each instance once (merge.h).
+#include "merge.h"
+
+#include <algorithm>
+#include <iterator>
+
+namespace fe {
+
+void sort_matches(std::vector<Match>& m) {
+  std::sort(m.begin(), m.end(), [](const Match& a, const Match& b) {
+    for (int i = 0; i < 3; ++i)
+      if (a.center[i] != b.center[i]) return a.center[i] < b.center[i];
+    return a.score > b.score;
+  });
+}
+
+std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap) {
+  std::stable_sort(found.begin(), found.end(), [](const Instance& a, const Instance& b) { return a.match.score > b.match.score; });
+  std::vector<const Instance*> kept;
+  for (const Instance& f : found) {
+    bool dup = false;
+    for (const Instance* k : kept) {
+      std::vector<int> both;
+      std::set_intersection(f.covered.begin(), f.covered.end(), k->covered.begin(), k->covered.end(), std::back_inserter(both));
+      const double denom = static_cast<double>(std::min(f.covered.size(), k->covered.size()));
+      dup = dup || static_cast<double>(both.size()) > max_overlap * denom;
+    }
+    if (!dup) kept.push_back(&f);
+  }
+  std::vector<Match> out;
+  for (const Instance* k : kept) out.push_back(k->match);
+  sort_matches(out);
+  return out;
+}
+
+bool same_instance(const Match& a, const Match& b, double max_overlap) {
+  auto shared = [&](std::vector<int> x, std::vector<int> y) {
+    std::sort(x.begin(), x.end());
+    std::sort(y.begin(), y.end());
+    std::vector<int> both;
+    std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
+    return static_cast<double>(both.size()) > max_overlap * static_cast<double>(std::min(x.size(), y.size()));
+  };
+  if (!a.faces.empty() && !b.faces.empty()) return shared(a.faces, b.faces);
+  if (!a.triangles.empty() && !b.triangles.empty()) return shared(a.triangles, b.triangles);
+  const Eigen::Vector3d lo = a.bbox_min.cwiseMax(b.bbox_min), hi = a.bbox_max.cwiseMin(b.bbox_max);
+  if ((lo.array() > hi.array()).any()) return false;
+  const double pad = 1e-9 + 0.01 * ((a.bbox_max - a.bbox_min).norm() + (b.bbox_max - b.bbox_min).norm());
+  auto vol = [&](const Eigen::Vector3d& l, const Eigen::Vector3d& h) { return ((h - l).array() + pad).prod(); };
+  return vol(lo, hi) > max_overlap * std::min(vol(a.bbox_min, a.bbox_max), vol(b.bbox_min, b.bbox_max));
+}
+
+void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p) {
+  for (Match& m : mirrored.matches) {
+    m.transform = m.transform * M;
+    m.transform /= m.transform(3, 3);
+    m.mirrored = true;
+    bool dup = false;
+    for (Match& d : res.matches) {
+      if (!same_instance(m, d, p.max_overlap)) continue;
+      dup = true;
+      if (m.score > d.score + 0.02) d = m;
+      break;
+    }
+    if (!dup) res.matches.push_back(m);
+  }
+  sort_matches(res.matches);
+  res.pairs_shot += mirrored.pairs_shot;
+  res.pairs_ss += mirrored.pairs_ss;
+  res.clusters += mirrored.clusters;
+  for (const auto& t : mirrored.timings)
+    if (t.first.rfind("target_", 0) != 0) res.timings.push_back({"mirror_" + t.first, t.second});
+}
+
+}  // namespace fe

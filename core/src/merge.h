@@ -1,0 +1,30 @@
+// Internal: each instance once. Hypotheses of one search that cover the same target region are one
+// instance (the better score wins), and so are a direct and a mirrored match of the same place.
+#pragma once
+
+#include "coverage.h"
+#include "featureextract/result.h"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace fe {
+
+/// Stable order for the user: by position (x, then y, then z), then score (a strict weak order).
+void sort_matches(std::vector<Match>& m);
+
+/// The instances of one search, each once: of two that share more than max_overlap of the smaller
+/// one's covered samples, the better-scoring one stays (the earlier one on a tie). Sorted.
+std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap);
+
+/// Two matches are one instance when they share more than max_overlap of the smaller one's faces
+/// (triangles for mesh input; boxes when neither is listed).
+bool same_instance(const Match& a, const Match& b, double max_overlap);
+
+/// Matches of the mirrored reference join the result: their H maps the original reference (H M),
+/// and where a mirrored and a direct match are the same instance the better score wins (the direct
+/// one unless the mirrored one scores 0.02 more, so that a symmetric feature is never reported as
+/// mirrored). Counts and timings are added.
+void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p);
+
+}  // namespace fe

@@ -1,0 +1,283 @@
+// Unit tests of match()'s stages (core/src: symmetry.h, hypothesis.h, placements.h, refine.h,
+// coverage.h, merge.h), each on a case whose answer is known: the example rib searched on itself,
+// where the identity is the true transform, and synthetic shapes and instances.
+#include "coverage.h"
+#include "description.h"
+#include "featureextract/extract.h"
+#include "featureextract/io.h"
+#include "hypothesis.h"
+#include "merge.h"
+#include "placements.h"
+#include "refine.h"
+#include "symmetry.h"
+#include "test_util.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <set>
+
+namespace {
+
+using fe_test::models;
+
+// Samples of a boss: a cylinder's side (radius r, height h) around `axis` through `point` and its
+// top cap, with outward normals. (A side alone is degenerate: every normal is also orthogonal to the
+// axis, which satisfies the axis equation too.)
+void cylinder(const Eigen::Vector3d& point, const Eigen::Vector3d& axis, double r, double h, fe::Points& x, fe::Points& n) {
+  const Eigen::Vector3d a = axis.normalized(), u = a.unitOrthogonal(), w = a.cross(u);
+  const int rings = 20, around = 36;
+  x.resize(2 * rings * around, 3);
+  n.resize(x.rows(), 3);
+  for (int i = 0; i < rings; ++i)
+    for (int k = 0; k < around; ++k) {
+      const double t = 2 * M_PI * k / around;
+      const Eigen::Vector3d radial = std::cos(t) * u + std::sin(t) * w;
+      x.row(i * around + k) = (point + h * i / (rings - 1.0) * a + r * radial).transpose();
+      n.row(i * around + k) = radial.transpose();
+      x.row((rings + i) * around + k) = (point + h * a + r * (i + 0.5) / rings * radial).transpose();  // the cap
+      n.row((rings + i) * around + k) = a.transpose();
+    }
+}
+
+// Samples of a box's six faces with their normals.
+void box(double a, double b, double c, fe::Points& x, fe::Points& n) {
+  std::vector<Eigen::Vector3d> px, pn;
+  const Eigen::Vector3d size(a, b, c);
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side)
+      for (int i = 0; i < 10; ++i)
+        for (int k = 0; k < 10; ++k) {
+          Eigen::Vector3d p;
+          p(axis) = side ? size(axis) : 0.0;
+          p((axis + 1) % 3) = size((axis + 1) % 3) * (i + 0.5) / 10;
+          p((axis + 2) % 3) = size((axis + 2) % 3) * (k + 0.5) / 10;
+          Eigen::Vector3d q = Eigen::Vector3d::Zero();
+          q(axis) = side ? 1 : -1;
+          px.push_back(p);
+          pn.push_back(q);
+        }
+  x.resize(static_cast<Eigen::Index>(px.size()), 3);
+  n.resize(x.rows(), 3);
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    x.row(static_cast<Eigen::Index>(i)) = px[i].transpose();
+    n.row(static_cast<Eigen::Index>(i)) = pn[i].transpose();
+  }
+}
+
+TEST(SymmetryStage, ACylinderIsAxisymmetricABoxIsNot) {
+  fe::Points x, n;
+  const Eigen::Vector3d point(1, 2, 3), axis(0.2, -0.3, 1.0);
+  cylinder(point, axis, 5, 10, x, n);
+  const fe::Symmetry s = fe::detect_axisymmetry(x, n, 15);
+  ASSERT_TRUE(s.axisymmetric);
+  EXPECT_GT(std::abs(s.axis.dot(axis.normalized())), 0.999);
+  // the axis point lies on the true axis
+  const Eigen::Vector3d off = (s.point - point) - (s.point - point).dot(axis.normalized()) * axis.normalized();
+  EXPECT_LT(off.norm(), 1e-6);
+  box(10, 6, 4, x, n);
+  EXPECT_FALSE(fe::detect_axisymmetry(x, n, 12).axisymmetric);
+}
+
+TEST(SymmetryStage, UntwistRemovesTheSpinAboutTheAxis) {
+  fe::Symmetry s;
+  s.axisymmetric = true;
+  s.point = Eigen::Vector3d(0, 0, 0);
+  s.axis = Eigen::Vector3d::UnitZ();
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H.topLeftCorner<3, 3>() = 2.0 * Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  H.topRightCorner<3, 1>() = Eigen::Vector3d(10, -4, 1);
+  const Eigen::Matrix4d U = fe::untwist(H, s);
+  EXPECT_TRUE((U.topLeftCorner<3, 3>().isApprox(2.0 * Eigen::Matrix3d::Identity(), 1e-9))) << U;
+  // points on the axis land where they did: only the spin about it changed
+  const Eigen::Vector3d on_axis(0, 0, 5);
+  EXPECT_LT((fe::apply_transform(U, on_axis) - fe::apply_transform(H, on_axis)).norm(), 1e-9);
+}
+
+// The example rib as reference and, described again as a target, as the shape it is searched on:
+// the identity is the true transform.
+struct SelfMatch : ::testing::Test {
+  static void SetUpTestSuite() {
+    mesh = new fe::TriangleMesh(fe::read_shape(models() + "/rib_reference.step"));
+    const double L = mesh->diagonal();
+    ref = new fe::ShapeDescription(fe::describe(*mesh, fe::ShapeDescription::Role::Reference, L, params));
+    tgt = new fe::ShapeDescription(fe::describe(*mesh, fe::ShapeDescription::Role::Target, L, params));
+  }
+  static void TearDownTestSuite() {
+    delete ref;
+    delete tgt;
+    delete mesh;
+  }
+  static const fe::ShapeDescription::Impl& R() { return ref->impl(); }
+  static const fe::ShapeDescription::Impl& T() { return tgt->impl(); }
+  static Eigen::Matrix4d moved(const Eigen::Vector3d& shift, double angle) {
+    Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+    const Eigen::Vector3d c = 0.5 * (R().box_min + R().box_max);
+    const Eigen::Matrix3d rot = Eigen::AngleAxisd(angle, Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
+    H.topLeftCorner<3, 3>() = rot;
+    H.topRightCorner<3, 1>() = c - rot * c + shift;
+    return H;
+  }
+  static inline fe::TriangleMesh* mesh = nullptr;
+  static inline fe::ShapeDescription* ref = nullptr;
+  static inline fe::ShapeDescription* tgt = nullptr;
+  static inline const fe::Params params{};
+};
+
+TEST_F(SelfMatch, TheTrueTransformPassesEveryCheck) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  const double L = R().L;
+  const Eigen::Matrix4d I = Eigen::Matrix4d::Identity();
+  EXPECT_LT(scorer.cost(I), 0.01 * L);
+  EXPECT_LT(scorer.quantile_error(I), 0.01 * L);
+  const fe::Evidence ev = scorer.evaluate(I, 1.0);
+  EXPECT_TRUE(ev.accepted()) << ev.failed();
+  EXPECT_EQ(ev.failed(), "");
+  EXPECT_GT(ev.score, 0.95);
+  EXPECT_GT(ev.key_agreement, 0.95);
+  EXPECT_LT(ev.obstructed, 0.05);
+  // every check of a B-rep reference was measured: the cheap four, free space, whole faces
+  std::set<std::string> names;
+  for (const fe::Check& c : ev.checks) names.insert(c.name);
+  EXPECT_EQ(names, (std::set<std::string>{"finite", "accept_error", "min_score", "min_key_agreement", "max_obstructed", "max_partial_faces"}));
+  EXPECT_EQ(ev.mapped.rows(), static_cast<Eigen::Index>(scorer.dense_rows().size()));
+}
+
+TEST_F(SelfMatch, AFitOffTheSurfaceFailsTheErrorCheck) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  const double L = R().L;
+  const fe::Evidence ev = scorer.evaluate(moved(Eigen::Vector3d(0.2 * L, 0.1 * L, 0.15 * L), 0), 1.0);
+  EXPECT_FALSE(ev.accepted());
+  EXPECT_EQ(ev.failed(), "accept_error");
+  EXPECT_GT(scorer.cost(moved(Eigen::Vector3d(0.2 * L, 0.1 * L, 0.15 * L), 0)), scorer.cost(Eigen::Matrix4d::Identity()));
+  // the expensive checks are measured only when asked, once a cheap one failed
+  EXPECT_EQ(ev.checks.size(), 4u);
+  EXPECT_EQ(scorer.evaluate(moved(Eigen::Vector3d(0.2 * L, 0, 0), 0), 1.0, true).checks.size(), 6u);
+}
+
+TEST(HypothesisStage, EachDeformationBoundHasItsOwnCheck) {
+  const fe::Params p;
+  const Eigen::Vector3d lo(-5, -5, -5), hi(5, 5, 5);
+  auto outside = [&](const Eigen::Matrix4d& H) {
+    const char* why = fe::deformation_outside(fe::deformation(H, lo, hi), p);
+    return std::string(why ? why : "");
+  };
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  EXPECT_EQ(outside(H), "");
+  H.diagonal() << -1, 1, 1, 1;
+  EXPECT_EQ(outside(H), "reflection");
+  H.diagonal() << 3, 3, 3, 1;  // volume 27 > volume_ratio_max 20
+  EXPECT_EQ(outside(H), "volume_ratio");
+  H.diagonal() << 0.45, 1.5, 1.5, 1;  // one axis below axis_scale_min 0.5, volume ~1
+  EXPECT_EQ(outside(H), "axis_scale");
+  H.diagonal() << 0.6, 2.0, 2.0, 1;  // 2.0 / 0.6 > max_anisotropy 3
+  EXPECT_EQ(outside(H), "anisotropy");
+  H.setIdentity();
+  H(3, 0) = 0.06;  // w from 0.7 to 1.3 over the box
+  EXPECT_EQ(outside(H), "perspective");
+  fe::Params mirror = p;
+  mirror.allow_reflection = true;
+  H.setIdentity();
+  H(0, 0) = -1;
+  EXPECT_EQ(fe::deformation_outside(fe::deformation(H, lo, hi), mirror), nullptr);
+}
+
+TEST_F(SelfMatch, OnePairPlacementsFindTheIdentity) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  // the same mesh, sampled with the same seed: key point i of both is the same point
+  ASSERT_EQ(R().keys.rows(), T().keys.rows());
+  ASSERT_TRUE(R().keys.isApprox(T().keys));
+  std::vector<fe::KeyPointPair> pairs;
+  for (Eigen::Index i = 0; i < R().keys.rows(); ++i) pairs.push_back({static_cast<int>(i), static_cast<int>(i), 0, 0.f});
+  const std::vector<double> scales(pairs.size(), 1.0);
+  const fe::PairFrames frames{R().shot, T().shot, R().m / 2, T().D};
+  const fe::Placement pl = fe::one_pair_placement(pairs, R().keys, T().keys, scales, frames, scorer);
+  ASSERT_GE(pl.pair, 0);
+  EXPECT_LT(pl.cost, 0.01 * R().L);
+  for (Eigen::Index i = 0; i < R().keys.rows(); i += 7)
+    EXPECT_LT((fe::apply_transform(pl.H, R().keys.row(i).transpose()) - R().keys.row(i).transpose()).norm(), 0.02 * R().L);
+}
+
+TEST_F(SelfMatch, TheRefinementPullsAMovedFitBackOntoTheSurface) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  const fe::SurfaceRefinement refinement(R(), T(), params, scorer);
+  EXPECT_FALSE(refinement.symmetry().axisymmetric);  // a rib
+  const double L = R().L;
+  const Eigen::Matrix4d H0 = moved(Eigen::Vector3d(0.01 * L, -0.008 * L, 0.006 * L), 0.02);
+  const fe::Polished out = refinement.polish(H0, scorer.cost(H0), fe::Points(0, 3), fe::Points(0, 3));
+  EXPECT_NEAR(out.rms_unrefined, scorer.rms_on_surface(H0), 1e-12);
+  EXPECT_LT(scorer.rms_on_surface(out.H), out.rms_unrefined / 3);
+  EXPECT_NEAR(out.s, 1.0, 0.02);
+  EXPECT_TRUE(scorer.evaluate(out.H, out.s).accepted());
+}
+
+TEST_F(SelfMatch, TheTrueTransformCoversEveryFace) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  const fe::Evidence ev = scorer.evaluate(Eigen::Matrix4d::Identity(), 1.0);
+  const fe::KdTree3 tree(ev.mapped);
+  fe::Instance inst;
+  ASSERT_TRUE(fe::cover_target(ev.mapped, tree, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, inst));
+  EXPECT_EQ(static_cast<int>(inst.match.faces.size()), mesh->num_faces);
+  EXPECT_GT(inst.covered.size(), T().dense.size() * 9 / 10);
+  EXPECT_TRUE(std::is_sorted(inst.covered.begin(), inst.covered.end()));
+  const Eigen::Vector3d c = 0.5 * (R().box_min + R().box_max);
+  EXPECT_LT((inst.match.bbox_min - R().box_min).norm(), 0.05 * R().L);
+  EXPECT_LT((inst.match.bbox_max - R().box_max).norm(), 0.05 * R().L);
+  EXPECT_LT((inst.match.center - c).norm(), 0.25 * R().L);
+  EXPECT_TRUE(inst.match.triangles.empty());  // B-rep input: faces, not triangles
+  // a map off the target covers nothing
+  fe::Points far = ev.mapped;
+  far.col(0).array() += 10 * R().L;
+  const fe::KdTree3 far_tree(far);
+  fe::Instance none;
+  EXPECT_FALSE(fe::cover_target(far, far_tree, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, none));
+}
+
+fe::Instance instance(int from, int to, double score, double x) {
+  fe::Instance in;
+  for (int i = from; i < to; ++i) in.covered.push_back(i);
+  in.match.score = score;
+  in.match.center = Eigen::Vector3d(x, 0, 0);
+  return in;
+}
+
+TEST(MergeStage, OverlappingInstancesKeepTheBetterScoreInPositionOrder) {
+  // a and b share 50 of a's 100 samples (over max_overlap 0.3): b scores better and stays
+  const std::vector<fe::Match> m = fe::merge_instances({instance(0, 100, 0.90, 5), instance(50, 150, 0.95, 6), instance(500, 600, 0.80, -1)}, 0.3);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0].center.x(), -1);  // sorted by position
+  EXPECT_EQ(m[1].center.x(), 6);
+  EXPECT_EQ(m[1].score, 0.95);
+  // under the overlap bound both stay
+  EXPECT_EQ(fe::merge_instances({instance(0, 100, 0.9, 5), instance(80, 180, 0.95, 6)}, 0.3).size(), 2u);
+}
+
+TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
+  fe::Params p;
+  fe::Result direct;
+  fe::Match d;
+  d.faces = {1, 2, 3, 4};
+  d.score = 0.90;
+  direct.matches = {d};
+  auto with_mirror = [&](double score, std::vector<int> faces) {
+    fe::Result mirrored;
+    fe::Match m;
+    m.faces = std::move(faces);
+    m.score = score;
+    mirrored.matches = {m};
+    fe::Result r = direct;
+    fe::merge_mirrored(r, mirrored, Eigen::Matrix4d::Identity(), p);
+    return r;
+  };
+  fe::Result r = with_mirror(0.91, {1, 2, 3, 4});  // the same instance, a tie
+  ASSERT_EQ(r.matches.size(), 1u);
+  EXPECT_FALSE(r.matches[0].mirrored);
+  r = with_mirror(0.97, {1, 2, 3, 5});  // the same instance, clearly better
+  ASSERT_EQ(r.matches.size(), 1u);
+  EXPECT_TRUE(r.matches[0].mirrored);
+  r = with_mirror(0.80, {7, 8, 9});  // another instance
+  ASSERT_EQ(r.matches.size(), 2u);
+  EXPECT_TRUE(fe::same_instance(r.matches[0], r.matches[0], p.max_overlap));
+  EXPECT_FALSE(fe::same_instance(r.matches[0], r.matches[1], p.max_overlap));
+}
+
+}  // namespace
