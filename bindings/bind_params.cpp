@@ -54,9 +54,9 @@ void bind_params(py::module_& m) {
     py::list out;
     for (const auto& i : fe::param_table())
       out.append(py::dict(py::arg("name") = i.name, py::arg("type") = i.type, py::arg("unit") = i.unit, py::arg("help") = i.help,
-                          py::arg("default") = i.default_value));
+                          py::arg("default") = i.default_value, py::arg("group") = i.group));
     return out;
-  }, "Every parameter: name, type, unit, help, default.");
+  }, "Every parameter, step by step: name, type, unit, help, default, group (the paper's step).");
 }
 
 }  // namespace fe_py

@@ -62,7 +62,9 @@ void say(const std::string& msg) { std::cerr << "featureextract: " << one_line(m
 std::string param_help() {
   std::ostringstream s;
   s << "\nParameters (set them with --config FILE.json or --set NAME=VALUE; L = reference bounding-box diagonal):\n";
+  std::string group;
   for (const auto& p : fe::param_table()) {
+    if (p.group != group) s << " " << (group = p.group) << "\n";
     s << "  " << p.name << " (" << p.type << (p.unit.empty() ? "" : ", " + p.unit) << ", default " << p.default_value << ")\n"
       << "      " << p.help << "\n";
   }

@@ -15,7 +15,19 @@ namespace {
 
 static_assert(std::is_same_v<std::size_t, std::uint64_t>, "size_t parameters are stored as uint64");
 using Ptr = std::variant<double Params::*, int Params::*, bool Params::*, std::uint64_t Params::*>;
+// The paper's steps (and the run's own settings), in the order the table lists them.
+constexpr const char* kSampling = "1. Sampling";
+constexpr const char* kDescriptors = "2. Shape index and SHOT";
+constexpr const char* kKeyPoints = "3. Key points";
+constexpr const char* kPairs = "4. Pairs and clusters";
+constexpr const char* kRansac = "5. RANSAC and refinement";
+constexpr const char* kAcceptance = "6. Acceptance";
+constexpr const char* kReference = "Reference";
+constexpr const char* kResult = "Result";
+constexpr const char* kRun = "Run";
+
 struct Entry {
+  const char* group;
   const char* name;
   Ptr ptr;
   const char* unit;
@@ -25,54 +37,54 @@ struct Entry {
 
 const std::vector<Entry>& entries() {
   static const std::vector<Entry> e = {
-      {"seed", &Params::seed, "", "seed of sampling and RANSAC; same input and seed give the same output", 0, 1.8e19},
-      {"threads", &Params::threads, "count", "worker threads for SHOT descriptors; 0 = all cores", 0, 1024},
-      {"time_limit", &Params::time_limit, "s", "an extraction that takes longer stops with an error (CLI exit 5); 0 = no limit", 0, 1e7},
-      {"dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
-      {"sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
-      {"max_dense_points", &Params::max_dense_points, "count", "cap on dense samples per shape; spacing grows beyond it", 1000, 5e7},
-      {"normal_radius", &Params::normal_radius, "x L", "support radius of PCA normals", 1e-4, 0.5},
-      {"curvature_radius", &Params::curvature_radius, "x L", "support radius of the quadric fit for principal curvatures", 1e-4, 0.5},
-      {"planar_curvedness", &Params::planar_curvedness, "1/L", "curvedness x L below which a point is planar (shape index -1)", 0, 1e6},
-      {"shot_radius", &Params::shot_radius, "x L", "smallest SHOT support radius", 1e-3, 2},
-      {"shot_radii", &Params::shot_radii, "count", "SHOT radii per descriptor (multi-radius SHOT)", 1, 8},
-      {"shot_radius_ratio", &Params::shot_radius_ratio, "", "ratio of consecutive SHOT radii; also the step of the scale search", 1.05, 3},
-      {"scale_min", &Params::scale_min, "", "smallest target/reference scale searched by SHOT radius shifts", 0.1, 1},
-      {"scale_max", &Params::scale_max, "", "largest target/reference scale searched by SHOT radius shifts", 1, 10},
-      {"si_band", &Params::si_band, "", "half-width of the rut (0.25) and ridge (0.75) shape-index bands that are not key points", 0, 0.25},
-      {"ridge_rut_spacing", &Params::ridge_rut_spacing, "x L", "if > 0, ridge and rut points (cylinders: holes, lugs, bosses) are key points too, thinned to one per cube of this size; 0 = the paper's rule", 0, 1},
-      {"crease_key_points", &Params::crease_key_points, "", "sharp edges and corners where planes meet (machined features), which the curvature fit sees as planes, get the shape index of the rounded crease: edges 0.75 / 0.25 (ridge / rut), corners 1 / 0 / 0.5 (cap / cup / saddle)", 0, 1},
-      {"ridge_rut_fallback", &Params::ridge_rut_fallback, "x L", "if no instance is found with the key points above (and ridge_rut_spacing is 0), search again with ridge and rut key points thinned to this spacing (features made of cylinders and flats, e.g. lugs); 0 = never", 0, 1},
-      {"shot_neighbours", &Params::shot_neighbours, "count", "N: nearest reference key points in SHOT space per target key point", 1, 100},
-      {"si_neighbours", &Params::si_neighbours, "count", "M: nearest reference key points in shape index per target key point", 1, 1000},
-      {"pair_distance", &Params::pair_distance, "x L", "delta: a SHOT pair is kept if an SI pair lies this close at both ends", 0, 10},
-      {"cluster_tolerance", &Params::cluster_tolerance, "x L", "Euclidean clustering tolerance of paired target key points", 1e-3, 100},
-      {"min_cluster_pairs", &Params::min_cluster_pairs, "count", "clusters with fewer key point pairs are dropped", 5, 1e6},
-      {"vote_reach", &Params::vote_reach, "x L x scale", "each pair's local frames and scale predict where the reference's center lands; votes this close to a peak form one instance's group for RANSAC (separates instances that touch); 0 = the paper's clusters only", 0, 10},
-      {"ransac_max_iterations", &Params::ransac_max_iterations, "count", "upper bound of RANSAC iterations per instance", 1, 1e7},
-      {"ransac_patience", &Params::ransac_patience, "count", "RANSAC stops after this many iterations without improvement", 1, 1e7},
-      {"pose_hypotheses", &Params::pose_hypotheses, "", "besides RANSAC's 5-pair samples, try one placement per pair (rotation from the SHOT local frames, scale from the radius shift): finds instances among many wrong pairs", 0, 1},
-      {"refine_iterations", &Params::refine_iterations, "count", "surface refinement (ICP-like) iterations after RANSAC; 0 = the paper's RANSAC result as is", 0, 1000},
-      {"max_failures", &Params::max_failures, "count", "a cluster is given up after this many rejected transforms in a row", 1, 1e4},
-      {"error_quantile", &Params::error_quantile, "", "error of a transform: 1 = maximum over reference key points (paper), <1 = that quantile", 0.5, 1},
-      {"accept_error", &Params::accept_error, "x L x scale", "a transform is accepted if its error is at most this", 1e-4, 10},
-      {"min_score", &Params::min_score, "", "a transform is accepted if this fraction of the mapped reference lies on the target", 0, 1},
-      {"min_key_agreement", &Params::min_key_agreement, "", "a transform is accepted if this fraction of the reference key points lands near target key points of similar shape index", 0, 1},
-      {"max_obstructed", &Params::max_obstructed, "", "a transform is accepted if at most this fraction of rays along the reference's outward normals, through the space it leaves free (up to where they meet the reference again or leave its box), meets target surface: half of a slot is shaped like a step face for face, but the slot's other wall stands where the step is open; 1 = no check", 0, 1},
-      {"clearance_margin", &Params::clearance_margin, "x L", "how far past the reference's box its free-space rays run (max_obstructed)", 0, 1},
-      {"max_partial_faces", &Params::max_partial_faces, "", "a transform is accepted if at most this share of the reference's whole B-rep faces (by area) lands on target faces it covers less than 60 % of: a step laid on part of a slot's floor; 1 = no check", 0, 1},
-      {"key_si_tolerance", &Params::key_si_tolerance, "", "shape index difference allowed for key point agreement", 0, 1},
-      {"volume_ratio_min", &Params::volume_ratio_min, "", "lower bound of the volume expansion ratio |det J|", 0, 1e6},
-      {"volume_ratio_max", &Params::volume_ratio_max, "", "upper bound of the volume expansion ratio |det J|", 0, 1e6},
-      {"axis_scale_min", &Params::axis_scale_min, "", "lower bound of every principal stretch (singular value of J)", 0, 1e3},
-      {"axis_scale_max", &Params::axis_scale_max, "", "upper bound of every principal stretch (singular value of J)", 0, 1e3},
-      {"max_anisotropy", &Params::max_anisotropy, "", "largest / smallest principal stretch (oblique distortion bound)", 1, 1e3},
-      {"max_perspective", &Params::max_perspective, "", "largest |w - 1| (relative) of H over the reference box", 0, 10},
-      {"allow_reflection", &Params::allow_reflection, "", "accept mirror-image transforms (negative determinant)", 0, 1},
-      {"mirror", &Params::mirror, "", "also search the mirror image of the reference (skipped when the reference is its own mirror image); such matches have mirrored = true and a negative determinant", 0, 1},
-      {"detect_cut_faces", &Params::detect_cut_faces, "", "a closed reference (a solid cut out of a part with a box) is searched without its cut faces: planar faces on its bounding box that reach another side of the box", 0, 1},
-      {"face_coverage", &Params::face_coverage, "", "a target face is listed if this fraction of its area is covered by the mapped reference", 0, 1},
-      {"max_overlap", &Params::max_overlap, "", "instances sharing more than this fraction of their region are reported once", 0, 1},
+      {kSampling, "dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
+      {kSampling, "sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
+      {kSampling, "max_dense_points", &Params::max_dense_points, "count", "cap on dense samples per shape; spacing grows beyond it", 1000, 5e7},
+      {kSampling, "normal_radius", &Params::normal_radius, "x L", "support radius of PCA normals", 1e-4, 0.5},
+      {kDescriptors, "curvature_radius", &Params::curvature_radius, "x L", "support radius of the quadric fit for principal curvatures", 1e-4, 0.5},
+      {kDescriptors, "planar_curvedness", &Params::planar_curvedness, "1/L", "curvedness x L below which a point is planar (shape index -1)", 0, 1e6},
+      {kDescriptors, "shot_radius", &Params::shot_radius, "x L", "smallest SHOT support radius", 1e-3, 2},
+      {kDescriptors, "shot_radii", &Params::shot_radii, "count", "SHOT radii per descriptor (multi-radius SHOT)", 1, 8},
+      {kDescriptors, "shot_radius_ratio", &Params::shot_radius_ratio, "", "ratio of consecutive SHOT radii; also the step of the scale search", 1.05, 3},
+      {kDescriptors, "scale_min", &Params::scale_min, "", "smallest target/reference scale searched by SHOT radius shifts", 0.1, 1},
+      {kDescriptors, "scale_max", &Params::scale_max, "", "largest target/reference scale searched by SHOT radius shifts", 1, 10},
+      {kKeyPoints, "si_band", &Params::si_band, "", "half-width of the rut (0.25) and ridge (0.75) shape-index bands that are not key points", 0, 0.25},
+      {kKeyPoints, "ridge_rut_spacing", &Params::ridge_rut_spacing, "x L", "if > 0, ridge and rut points (cylinders: holes, lugs, bosses) are key points too, thinned to one per cube of this size; 0 = the paper's rule", 0, 1},
+      {kKeyPoints, "crease_key_points", &Params::crease_key_points, "", "sharp edges and corners where planes meet (machined features), which the curvature fit sees as planes, get the shape index of the rounded crease: edges 0.75 / 0.25 (ridge / rut), corners 1 / 0 / 0.5 (cap / cup / saddle)", 0, 1},
+      {kKeyPoints, "ridge_rut_fallback", &Params::ridge_rut_fallback, "x L", "if no instance is found with the key points above (and ridge_rut_spacing is 0), search again with ridge and rut key points thinned to this spacing (features made of cylinders and flats, e.g. lugs); 0 = never", 0, 1},
+      {kPairs, "shot_neighbours", &Params::shot_neighbours, "count", "N: nearest reference key points in SHOT space per target key point", 1, 100},
+      {kPairs, "si_neighbours", &Params::si_neighbours, "count", "M: nearest reference key points in shape index per target key point", 1, 1000},
+      {kPairs, "pair_distance", &Params::pair_distance, "x L", "delta: a SHOT pair is kept if an SI pair lies this close at both ends", 0, 10},
+      {kPairs, "cluster_tolerance", &Params::cluster_tolerance, "x L", "Euclidean clustering tolerance of paired target key points", 1e-3, 100},
+      {kPairs, "min_cluster_pairs", &Params::min_cluster_pairs, "count", "clusters with fewer key point pairs are dropped", 5, 1e6},
+      {kPairs, "vote_reach", &Params::vote_reach, "x L x scale", "each pair's local frames and scale predict where the reference's center lands; votes this close to a peak form one instance's group for RANSAC (separates instances that touch); 0 = the paper's clusters only", 0, 10},
+      {kRansac, "ransac_max_iterations", &Params::ransac_max_iterations, "count", "upper bound of RANSAC iterations per instance", 1, 1e7},
+      {kRansac, "ransac_patience", &Params::ransac_patience, "count", "RANSAC stops after this many iterations without improvement", 1, 1e7},
+      {kRansac, "pose_hypotheses", &Params::pose_hypotheses, "", "besides RANSAC's 5-pair samples, try one placement per pair (rotation from the SHOT local frames, scale from the radius shift): finds instances among many wrong pairs", 0, 1},
+      {kRansac, "refine_iterations", &Params::refine_iterations, "count", "surface refinement (ICP-like) iterations after RANSAC; 0 = the paper's RANSAC result as is", 0, 1000},
+      {kRansac, "max_failures", &Params::max_failures, "count", "a cluster is given up after this many rejected transforms in a row", 1, 1e4},
+      {kAcceptance, "error_quantile", &Params::error_quantile, "", "error of a transform: 1 = maximum over reference key points (paper), <1 = that quantile", 0.5, 1},
+      {kAcceptance, "accept_error", &Params::accept_error, "x L x scale", "a transform is accepted if its error is at most this", 1e-4, 10},
+      {kAcceptance, "min_score", &Params::min_score, "", "a transform is accepted if this fraction of the mapped reference lies on the target", 0, 1},
+      {kAcceptance, "min_key_agreement", &Params::min_key_agreement, "", "a transform is accepted if this fraction of the reference key points lands near target key points of similar shape index", 0, 1},
+      {kAcceptance, "max_obstructed", &Params::max_obstructed, "", "a transform is accepted if at most this fraction of rays along the reference's outward normals, through the space it leaves free (up to where they meet the reference again or leave its box), meets target surface: half of a slot is shaped like a step face for face, but the slot's other wall stands where the step is open; 1 = no check", 0, 1},
+      {kAcceptance, "clearance_margin", &Params::clearance_margin, "x L", "how far past the reference's box its free-space rays run (max_obstructed)", 0, 1},
+      {kAcceptance, "max_partial_faces", &Params::max_partial_faces, "", "a transform is accepted if at most this share of the reference's whole B-rep faces (by area) lands on target faces it covers less than 60 % of: a step laid on part of a slot's floor; 1 = no check", 0, 1},
+      {kAcceptance, "key_si_tolerance", &Params::key_si_tolerance, "", "shape index difference allowed for key point agreement", 0, 1},
+      {kAcceptance, "volume_ratio_min", &Params::volume_ratio_min, "", "lower bound of the volume expansion ratio |det J|", 0, 1e6},
+      {kAcceptance, "volume_ratio_max", &Params::volume_ratio_max, "", "upper bound of the volume expansion ratio |det J|", 0, 1e6},
+      {kAcceptance, "axis_scale_min", &Params::axis_scale_min, "", "lower bound of every principal stretch (singular value of J)", 0, 1e3},
+      {kAcceptance, "axis_scale_max", &Params::axis_scale_max, "", "upper bound of every principal stretch (singular value of J)", 0, 1e3},
+      {kAcceptance, "max_anisotropy", &Params::max_anisotropy, "", "largest / smallest principal stretch (oblique distortion bound)", 1, 1e3},
+      {kAcceptance, "max_perspective", &Params::max_perspective, "", "largest |w - 1| (relative) of H over the reference box", 0, 10},
+      {kAcceptance, "allow_reflection", &Params::allow_reflection, "", "accept mirror-image transforms (negative determinant)", 0, 1},
+      {kReference, "mirror", &Params::mirror, "", "also search the mirror image of the reference (skipped when the reference is its own mirror image); such matches have mirrored = true and a negative determinant", 0, 1},
+      {kReference, "detect_cut_faces", &Params::detect_cut_faces, "", "a closed reference (a solid cut out of a part with a box) is searched without its cut faces: planar faces on its bounding box that reach another side of the box", 0, 1},
+      {kResult, "face_coverage", &Params::face_coverage, "", "a target face is listed if this fraction of its area is covered by the mapped reference", 0, 1},
+      {kResult, "max_overlap", &Params::max_overlap, "", "instances sharing more than this fraction of their region are reported once", 0, 1},
+      {kRun, "seed", &Params::seed, "", "seed of sampling and RANSAC; same input and seed give the same output", 0, 1.8e19},
+      {kRun, "threads", &Params::threads, "count", "worker threads for SHOT descriptors; 0 = all cores", 0, 1024},
+      {kRun, "time_limit", &Params::time_limit, "s", "an extraction that takes longer stops with an error (CLI exit 5); 0 = no limit", 0, 1e7},
   };
   return e;
 }
@@ -104,7 +116,7 @@ const std::vector<ParamInfo>& param_table() {
         else if constexpr (std::is_same_v<T, double>) return "float";
         else return "int";
       }, e.ptr);
-      t.push_back({e.name, type, e.unit, e.help, value_string(d, e.ptr)});
+      t.push_back({e.name, type, e.unit, e.help, value_string(d, e.ptr), e.group});
     }
     return t;
   }();

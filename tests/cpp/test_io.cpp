@@ -128,9 +128,15 @@ TEST(Params, JsonRoundTripAndErrors) {
   EXPECT_THROW(fe::params_from_json("{\"allow_reflection\": 1}"), std::invalid_argument);
   EXPECT_THROW(fe::params_from_json("[1, 2]"), std::invalid_argument);
   EXPECT_THROW(fe::params_from_json("{\"scale_min\": 0.9, \"scale_max\": 1.0, \"axis_scale_min\": 2, \"axis_scale_max\": 1}"), std::invalid_argument);
-  // every parameter is documented
+  // every parameter is documented and belongs to one step, listed together (the panel's groups)
+  std::vector<std::string> groups;
   for (const auto& info : fe::param_table()) {
     EXPECT_FALSE(info.help.empty()) << info.name;
     EXPECT_FALSE(info.default_value.empty()) << info.name;
+    EXPECT_FALSE(info.group.empty()) << info.name;
+    if (groups.empty() || groups.back() != info.group) groups.push_back(info.group);
   }
+  const std::vector<std::string> steps = {"1. Sampling", "2. Shape index and SHOT", "3. Key points", "4. Pairs and clusters",
+                                          "5. RANSAC and refinement", "6. Acceptance", "Reference", "Result", "Run"};
+  EXPECT_EQ(groups, steps);
 }

@@ -138,7 +138,8 @@ def main():
     labels = [w.text() for w in panel.scroll.widget().findChildren(QtGui.QLabel)]
     check(labels and not any("_" in t for t in labels), f"readable parameter labels ({[t for t in labels if '_' in t][:3]})")
     boxes = [b.title() for b in panel.scroll.widget().findChildren(QtGui.QGroupBox)]
-    check(boxes[:2] == ["1. Sampling", "2. Shape index and SHOT"] and "Other" not in boxes, f"parameters grouped by step ({boxes})")
+    steps = list(dict.fromkeys(row["group"] for row in panel.table))  # the core's steps, in its order
+    check(boxes == steps and boxes[:2] == ["1. Sampling", "2. Shape index and SHOT"], f"parameters grouped by step ({boxes})")
     view = panel.scroll.viewport()
     clipped = [n for n, w in panel.fields.items() if w.mapTo(panel.scroll.widget(), QtCore.QPoint(w.width(), 0)).x() > view.width()]
     check(view.width() > 150 and not clipped, f"every field within the panel's {view.width()} px "

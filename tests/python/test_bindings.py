@@ -28,6 +28,10 @@ def test_params_defaults_docs_and_validation():
     assert "default" in fx.Params.scale_max.__doc__
     names = [row["name"] for row in fx.param_table()]
     assert "pair_distance" in names and len(names) == len(set(names))
+    groups = [row["group"] for row in fx.param_table()]
+    assert groups[0] == "1. Sampling" and groups[-1] == "Run"
+    assert [g for i, g in enumerate(groups) if i == 0 or groups[i - 1] != g] == sorted(set(groups), key=groups.index), \
+        "each step's parameters are listed together"
     q = fx.make_params(seed=7, scale_max=2.0)
     assert (q.seed, q.scale_max) == (7, 2.0)
     with pytest.raises(ValueError):

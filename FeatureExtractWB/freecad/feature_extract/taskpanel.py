@@ -19,26 +19,6 @@ PRESETS = {
     "Fast (coarser)": {"dense_spacing": 0.02, "sparse_spacing": 0.05, "ransac_patience": 300},
 }
 
-# The parameters under Advanced, grouped by the paper's steps (the names stay the core's JSON names).
-GROUPS = [
-    ("1. Sampling", ["dense_spacing", "sparse_spacing", "max_dense_points", "normal_radius"]),
-    ("2. Shape index and SHOT", ["curvature_radius", "planar_curvedness", "shot_radius", "shot_radii",
-                                 "shot_radius_ratio", "scale_min", "scale_max"]),
-    ("3. Key points", ["si_band", "ridge_rut_spacing", "crease_key_points", "ridge_rut_fallback"]),
-    ("4. Pairs and clusters", ["shot_neighbours", "si_neighbours", "pair_distance", "cluster_tolerance",
-                               "min_cluster_pairs", "vote_reach"]),
-    ("5. RANSAC and refinement", ["ransac_max_iterations", "ransac_patience", "pose_hypotheses",
-                                  "refine_iterations", "max_failures"]),
-    ("6. Acceptance", ["accept_error", "error_quantile", "min_score", "min_key_agreement", "key_si_tolerance",
-                       "max_obstructed", "clearance_margin", "max_partial_faces", "volume_ratio_min",
-                       "volume_ratio_max", "axis_scale_min", "axis_scale_max", "max_anisotropy", "max_perspective",
-                       "allow_reflection"]),
-    ("Reference", ["mirror", "detect_cut_faces"]),
-    ("Result", ["face_coverage", "max_overlap"]),
-    ("Run", ["seed", "threads", "time_limit"]),
-]
-
-
 def label_of(name, unit):
     """'shot_radius', 'x L' -> 'Shot radius (x L)': what the panel shows for a parameter."""
     text = name.replace("_", " ")
@@ -94,18 +74,16 @@ class ExtractPanel:
         groups = {}
         inner = QtGui.QWidget()
         inner_lay = QtGui.QVBoxLayout(inner)
-        known = {n for _, names in GROUPS for n in names}
-        order = GROUPS + [("Other", [r["name"] for r in self.table if r["name"] not in known])]
-        for title, names in order:
-            if not any(r["name"] in names for r in self.table):
-                continue
-            box = QtGui.QGroupBox(translate("FeatureExtract", title))
-            f = QtGui.QFormLayout(box)
-            f.setRowWrapPolicy(QtGui.QFormLayout.WrapAllRows)  # each label above its field: the panel is narrow
-            f.setFieldGrowthPolicy(QtGui.QFormLayout.AllNonFixedFieldsGrow)
-            inner_lay.addWidget(box)
-            for n in names:
-                groups[n] = f
+        # grouped by the paper's steps as the core's table lists them (its "group" of each parameter)
+        for row in self.table:
+            title = row["group"]
+            if title not in groups:
+                box = QtGui.QGroupBox(translate("FeatureExtract", title))
+                f = QtGui.QFormLayout(box)
+                f.setRowWrapPolicy(QtGui.QFormLayout.WrapAllRows)  # each label above its field: the panel is narrow
+                f.setFieldGrowthPolicy(QtGui.QFormLayout.AllNonFixedFieldsGrow)
+                inner_lay.addWidget(box)
+                groups[title] = f
         for row in self.table:
             if row["type"] == "bool":
                 w = QtGui.QCheckBox()
@@ -126,7 +104,7 @@ class ExtractPanel:
             label.setToolTip(tip + f" ({row['name']})")
             w.setMinimumWidth(80)
             w.setMaximumWidth(140)
-            groups[row["name"]].addRow(label, w)
+            groups[row["group"]].addRow(label, w)
             self.fields[row["name"]] = w
         scroll = QtGui.QScrollArea()
         scroll.setWidget(inner)

@@ -80,13 +80,15 @@ struct Params {
   void validate() const;
 };
 
-/// One documented parameter, for --help, JSON and bindings.
+/// One documented parameter, for --help, JSON, the bindings and the task panel's groups. The table
+/// lists them step by step; the JSON names stay flat.
 struct ParamInfo {
   std::string name;
   std::string type;   ///< "int", "float", "bool", "uint64"
   std::string unit;   ///< "x L", "", "count", ...
   std::string help;
   std::string default_value;
+  std::string group;  ///< the paper's step it belongs to ("1. Sampling", ..., "6. Acceptance"), or "Reference", "Result", "Run"
 };
 const std::vector<ParamInfo>& param_table();
 
