@@ -9,7 +9,7 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.environ["FE_WB"]), "tests", "freecad"))
-from gui_common import check, finish, report_view, use_workbench, wait_for  # noqa: E402
+from gui_common import check, compare_to_reference, finish, report_view, use_workbench, wait_for  # noqa: E402
 
 
 def main():
@@ -25,11 +25,11 @@ def main():
         import freecad.feature_extract.init_gui  # noqa: F401
     Gui.activateWorkbench("FeatureExtractWorkbench")
     check(Gui.activeWorkbench().name() == "FeatureExtractWorkbench", "workbench activates")
-    from freecad.feature_extract import api, commands, taskpanel
-    from freecad.feature_extract.objects import is_of_type
+    from freecad.feature_extract import actions, api, background, commands, taskpanel
+    from freecad.feature_extract.model import is_of_type
     check(os.path.realpath(api.__file__).startswith(os.path.realpath(os.environ["FE_WB"])),
           f"the workbench under test is {os.environ['FE_WB']} ({api.__file__})")
-    commands.INTERACTIVE = False
+    actions.INTERACTIVE = False
 
     doc = App.newDocument("gui_test")
     part = doc.addObject("Part::Feature", "Part")
@@ -41,15 +41,15 @@ def main():
     n0 = len(doc.Objects)
     Gui.Selection.clearSelection()
     Gui.runCommand("FE_PickReference")
-    check(commands.last_error is not None and "Select" in commands.last_error, "no selection: clear message")
-    commands.last_error = None
+    check(actions.last_error is not None and "Select" in actions.last_error, "no selection: clear message")
+    actions.last_error = None
     Gui.Selection.addSelection(part, ["Edge1"])
     Gui.runCommand("FE_PickReference")
-    check(commands.last_error is not None and "Edge1" in commands.last_error, "edge selected: clear message")
-    commands.last_error = None
+    check(actions.last_error is not None and "Edge1" in actions.last_error, "edge selected: clear message")
+    actions.last_error = None
     Gui.Selection.clearSelection()
     Gui.runCommand("FE_Extract")
-    check(commands.last_error is not None and "reference" in commands.last_error, "extract without reference: message")
+    check(actions.last_error is not None and "reference" in actions.last_error, "extract without reference: message")
     check(len(doc.Objects) == n0, "document unchanged after bad input")
 
     # pick the first rib's faces as reference
@@ -80,7 +80,7 @@ def main():
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(part, faces)
     n_refs = len([o for o in doc.Objects if is_of_type(o, "ReferenceFeature")])
-    commands.last_error = None
+    actions.last_error = None
     Gui.Command.get("FE_PickReference").getAction()[0].trigger()  # as a click on the toolbar button
     wait_for(lambda: False, 0.3)
     Gui.runCommand("Std_MacroStopRecord")
@@ -112,7 +112,7 @@ def main():
     # the samples/key points overlay toggles
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(part)
-    from freecad.feature_extract import overlay, background
+    from freecad.feature_extract import overlay
     # computed in the background (issue 11, item 8: it blocked the GUI for 12 s on a real part),
     # with a progress dialog that can cancel it
     Gui.runCommand("FE_Tessellate")
@@ -146,9 +146,14 @@ def main():
           f"({[(n, panel.fields[n].width(), panel.fields[n].mapTo(panel.scroll.widget(), QtCore.QPoint(0, 0)).x()) for n in clipped[:3]]})")
     if os.environ.get("FE_PANEL_SHOT"):  # the panel as the user sees it, for the docs
         panel.form.grab().save(os.environ["FE_PANEL_SHOT"])
+    # the panel at its default width, against the stored picture of it (issue 11): a layout change
+    # that clips, hides or reflows the fields shows here even when every widget still exists
+    frac, said = compare_to_reference(panel.form.grab().toImage(), "extract_panel")
+    check(frac <= 0.02, f"the panel looks as its reference picture: {said}")
     panel.advanced.setChecked(False)
     n1 = len(doc.Objects)
     panel.run()
+    check(panel.running is not None and background.running is panel.running, "the panel's run is the background helper's job")
     panel.request_cancel()
     wait_for(lambda: panel.finished, 60)
     check(panel.finished and panel.outcome[0] == "cancelled", "cancel stops the run")
@@ -231,8 +236,8 @@ def main():
     Gui.Selection.addSelection(bosses)
     features = os.path.join(os.path.dirname(os.environ["FE_WB"]), "Resources", "library")
     commands.PlaceMesh().Activated(feature_dir=os.path.join(features, "boss"))
-    check(commands.PlaceMesh.running is not None, "mesh placement runs in the background")
-    ticks = wait_for(lambda: commands.PlaceMesh.running is None, 120)
+    check(background.running is not None, "mesh placement runs in the background")
+    ticks = wait_for(lambda: background.running is None, 120)
     check(ticks > 5, f"UI kept processing events while placing meshes ({ticks} polls)")
     meshes = [o for o in doc2.Objects if o.TypeId == "Fem::FemMeshObjectPython"]
     check(len(meshes) == 5, f"5 FEM mesh objects ({len(meshes)})")
@@ -293,8 +298,8 @@ def main():
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(plate)
     commands.MeshPart().Activated(folder=os.path.join(features, "boss"))
-    check(commands.MeshPart.running is not None, "whole-part meshing runs in the background")
-    ticks = wait_for(lambda: commands.MeshPart.running is None, 300)
+    check(background.running is not None, "whole-part meshing runs in the background")
+    ticks = wait_for(lambda: background.running is None, 300)
     check(ticks > 5, f"UI kept processing events while meshing the part ({ticks} polls)")
     meshes = [o for o in doc3.Objects if o.TypeId == "Fem::FemMeshObject"]
     analyses = [o for o in doc3.Objects if o.TypeId == "Fem::FemAnalysis"]

@@ -25,17 +25,17 @@ def main():
     if "FeatureExtractWorkbench" not in Gui.listWorkbenches():
         import freecad.feature_extract.init_gui  # noqa: F401
     Gui.activateWorkbench("FeatureExtractWorkbench")
-    from freecad.feature_extract import api, commands, library, library_panel
-    commands.INTERACTIVE = False
+    from freecad.feature_extract import actions, api, background, commands, library, library_panel
+    actions.INTERACTIVE = False
     prefs = App.ParamGet(library.PARAMS)
     saved_choice = prefs.GetString("Library", "")
     try:
-        run(App, Gui, Part, QtGui, api, commands, library, library_panel)
+        run(App, Gui, Part, QtGui, api, background, commands, library, library_panel)
     finally:  # the user's own choice of library back
         prefs.SetString("Library", saved_choice)
 
 
-def run(App, Gui, Part, QtGui, api, commands, library, library_panel):
+def run(App, Gui, Part, QtGui, api, background, commands, library, library_panel):
 
     report = report_view()
     check(report is not None, "report view found")
@@ -84,8 +84,8 @@ def run(App, Gui, Part, QtGui, api, commands, library, library_panel):
     panel.cls.setText("rib")
     panel.description.setText("picked in the GUI test")
     panel.add_picked()
-    check(commands.AddToLibrary.running is not None, "adding runs in the background")
-    ticks = wait_for(lambda: commands.AddToLibrary.running is None, 180)
+    check(background.running is not None, "adding runs in the background")
+    ticks = wait_for(lambda: background.running is None, 180)
     check(ticks > 5, f"UI kept processing events while adding ({ticks} polls)")
     names = [f["name"] for f in panel.entries]
     check("rib copy" in names and panel.list.count() == 3, f"the new feature is listed ({names}; {panel.status.text()!r})")
@@ -99,18 +99,18 @@ def run(App, Gui, Part, QtGui, api, commands, library, library_panel):
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(part)
     panel.search()
-    check(commands.SearchLibrary.running is not None, "the search runs in the background")
-    wait_for(lambda: commands.SearchLibrary.running is None or commands.SearchLibrary.running.state["progress"] > 0.05, 120)
-    if commands.SearchLibrary.running is not None:
-        commands.SearchLibrary.running.dialog.cancel()
-    wait_for(lambda: commands.SearchLibrary.running is None, 30)
+    check(background.running is not None, "the search runs in the background")
+    wait_for(lambda: background.running is None or background.running.state["progress"] > 0.05, 120)
+    if background.running is not None:
+        background.running.dialog.cancel()
+    wait_for(lambda: background.running is None, 30)
     wait_for(lambda: False, 0.5)  # the report view shows a line on the next events
     check(len(doc.Objects) == n0, "a cancelled search leaves the document as it was")
     check("cancelled" in report_text(), "cancelling says so")
 
     # the search: one group per feature, in the feature's color, overlaps said
     panel.search()
-    ticks = wait_for(lambda: commands.SearchLibrary.running is None, 300)
+    ticks = wait_for(lambda: background.running is None, 300)
     check(ticks > 5, f"UI kept processing events while searching ({ticks} polls)")
     wait_for(lambda: False, 0.5)
     groups = library.groups_for(part)
@@ -139,7 +139,7 @@ def run(App, Gui, Part, QtGui, api, commands, library, library_panel):
     Gui.Selection.clearSelection()
     Gui.Selection.addSelection(part)
     Gui.runCommand("FE_SearchLibrary")
-    wait_for(lambda: commands.SearchLibrary.running is None, 300)
+    wait_for(lambda: background.running is None, 300)
     groups = library.groups_for(part)
     labels = sorted(g.Label for g in groups)
     check(labels == ["rib copy on Part (5)", "rib on Part (5)", "screw boss on Part (2)"], f"re-run replaces the groups ({labels})")

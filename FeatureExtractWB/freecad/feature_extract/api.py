@@ -14,17 +14,13 @@ document is left exactly as it was (nothing is created, recolored or removed).""
 import FreeCAD as App
 
 from . import translate  # noqa: F401  (also sets up sys.path for the native module)
-from .objects import is_of_type
+# the api's own names too (api.results_for, api.FeatureExtractError, ...), for macros and scripts
+from .model import RESULT_GROUP, FeatureExtractError, is_of_type, meshes_for, reference_shape, results_for, shape_of, target_shape
 
 import featureextract as fx
 
-RESULT_GROUP = "FeatureExtractResults"
 PALETTE = [(0.89, 0.10, 0.11), (0.22, 0.49, 0.72), (0.30, 0.69, 0.29), (1.00, 0.50, 0.00), (0.60, 0.31, 0.64),
            (0.65, 0.34, 0.16), (0.97, 0.51, 0.75), (0.00, 0.75, 0.75), (0.74, 0.74, 0.13), (0.10, 0.10, 0.55)]
-
-
-class FeatureExtractError(ValueError):
-    """A problem the user can fix (bad selection, no solid, unreadable shape): one clear sentence."""
 
 
 class _changes:
@@ -56,21 +52,6 @@ class _changes:
 # ---------------------------------------------------------------------------------------------
 # shapes -> core meshes
 
-def _shape_of(obj):
-    shape = getattr(obj, "Shape", None)
-    if shape is None or shape.isNull():
-        raise FeatureExtractError(f"{obj.Label}: has no shape")
-    return shape
-
-
-def target_shape(obj):
-    """The solid(s) of a target object; a shape without faces is refused."""
-    shape = _shape_of(obj)
-    if not shape.Faces:
-        raise FeatureExtractError(f"{obj.Label}: has no faces to search")
-    return shape
-
-
 def mesh_of_shape(shape, name, feature_size=None):
     """Tessellates a Part.Shape through its BREP text, so the core's faces are FreeCAD's FaceN."""
     if feature_size:
@@ -81,26 +62,6 @@ def mesh_of_shape(shape, name, feature_size=None):
 
 # ---------------------------------------------------------------------------------------------
 # reference features
-
-def reference_shape(ref_obj):
-    """The faces of a reference feature as one compound (FaceN of its source, in the order given)."""
-    src = ref_obj.Source
-    if src is None:
-        raise FeatureExtractError(f"{ref_obj.Label}: its source object is gone")
-    shape = _shape_of(src)
-    faces = []
-    for name in ref_obj.Faces:
-        if not name.startswith("Face"):
-            raise FeatureExtractError(f"{ref_obj.Label}: '{name}' is not a face")
-        try:
-            faces.append(shape.getElement(name))
-        except Exception:
-            raise FeatureExtractError(f"{ref_obj.Label}: {src.Label} has no {name}")
-    if not faces:
-        raise FeatureExtractError(f"{ref_obj.Label}: no faces")
-    import Part
-    return Part.makeCompound(faces)
-
 
 def _one_plane(faces, size):
     """Do all these faces lie in one plane?"""
@@ -129,7 +90,7 @@ def make_reference(source, faces, label="Reference"):
     bad = [f for f in faces if not f.startswith("Face")]
     if bad:
         raise FeatureExtractError(f"{source.Label}: only faces can make a reference, not {', '.join(bad)}")
-    shape = _shape_of(source)
+    shape = shape_of(source)
     for f in faces:
         try:
             shape.getElement(f)
@@ -363,17 +324,6 @@ def add_results(target_obj, reference, result):
 # ---------------------------------------------------------------------------------------------
 # FE meshes of a reference feature folder on every instance (issue 5)
 
-def quality_color(sj):
-    """Element color by scaled Jacobian: green (good) through yellow and orange to red (inverted)."""
-    if sj < 0:
-        return (0.85, 0.0, 0.0)
-    if sj < 0.3:
-        return (1.0, 0.45, 0.0)
-    if sj < 0.6:
-        return (1.0, 0.85, 0.0)
-    return (0.2, 0.75, 0.25)
-
-
 def _fem_mesh(fe_mesh):
     """A FreeCAD FemMesh from the core's FeMesh. Node ids are kept; elements are numbered 1..n in the
     mesh's order (InpElementIds of the FEM object keeps the .inp ids)."""
@@ -447,23 +397,6 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
             meshes.append(obj)
         doc.recompute()
     return meshes
-
-
-def results_for(target_obj):
-    """The found instances (result objects) on target_obj."""
-    group = target_obj.Document.getObject(RESULT_GROUP)
-    members = []
-    for o in (group.Group if group else []):  # a library search's results sit in one group per feature
-        members += list(o.Group) if o.TypeId == "App::DocumentObjectGroup" else [o]
-    return [o for o in members if getattr(o, "Target", None) == target_obj
-            and is_of_type(o, "ExtractionResult")]
-
-
-def meshes_for(target_obj):
-    """The FE meshes placed on target_obj."""
-    group = target_obj.Document.getObject(RESULT_GROUP)
-    return [o for o in (group.Group if group else []) if getattr(o, "Target", None) == target_obj
-            and is_of_type(o, "FeatureMesh")]
 
 
 # ---------------------------------------------------------------------------------------------

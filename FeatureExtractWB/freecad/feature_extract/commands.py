@@ -5,76 +5,16 @@ import os
 import FreeCAD as App
 import FreeCADGui as Gui
 
-from . import icon, translate
-from .objects import is_of_type
-
-INTERACTIVE = True  # False in tests: errors go to the report view only (no modal dialog)
-last_error = None
-
-
-def report_error(message):
-    """A clear message for the user: a dialog and the report view; never a traceback."""
-    global last_error
-    last_error = message
-    App.Console.PrintError("FeatureExtract: " + message + "\n")
-    if INTERACTIVE:
-        from PySide import QtGui
-        QtGui.QMessageBox.warning(Gui.getMainWindow(), translate("FeatureExtract", "FeatureExtract"), message)
-
-
-def _do(command, module="freecad.feature_extract.api"):
-    """Runs (and records for macros) one API call; a failure becomes a message, not a traceback."""
-    # the import is recorded every time: Gui.addModule writes it once per session, so a macro
-    # recorded after the first use would lack it and stop with "name 'freecad' is not defined"
-    Gui.doCommand(f"import {module}")
-    try:
-        Gui.doCommand(command)
-    except Exception as e:  # noqa: BLE001
-        report_error(str(e))
-
-
-def _selected_solid():
-    sel = Gui.Selection.getSelectionEx()
-    for s in sel:
-        shape = getattr(s.Object, "Shape", None)
-        if shape is not None and not shape.isNull() and shape.Faces and \
-                not is_of_type(s.Object, "ReferenceFeature"):
-            return s.Object
-    return None
-
-
-def _references(doc):
-    return [o for o in doc.Objects if is_of_type(o, "ReferenceFeature")]
+from . import actions, icon, translate
 
 
 class BackgroundCommand:
     """A command whose work runs in the background (background.py): available while a document is
-    open and no other background job runs, since one progress dialog at a time is what a user follows."""
-
-    running = None  # the job in progress (the GUI tests wait on it)
+    open and no other background job runs, since one progress at a time is what a user follows."""
 
     def IsActive(self):
         from . import background
         return App.ActiveDocument is not None and background.running is None
-
-    def start(self, title, label, work, on_ok, cancelled="the document was not changed", done=None):
-        """Runs work(progress) in the background; then, on the GUI thread, on_ok(value) when it
-        succeeded, a message when it failed or was cancelled, and done(kind, value) if given."""
-        from . import background
-        cls = type(self)
-
-        def finished(kind, value):
-            cls.running = None
-            if kind == "ok":
-                on_ok(value)
-            elif kind == "error":
-                report_error(value)
-            else:
-                App.Console.PrintMessage(f"FeatureExtract: cancelled; {cancelled}.\n")
-            if done is not None:
-                done(kind, value)
-
-        cls.running = background.start(title, label, work, finished)
 
 
 class Tessellate(BackgroundCommand):
@@ -85,21 +25,21 @@ class Tessellate(BackgroundCommand):
 
     def Activated(self):
         from . import overlay
-        obj = _selected_solid()
+        obj = actions.selected_solid()
         if obj is None:
-            report_error(translate("FeatureExtract", "Select a solid (a part with faces) first."))
+            actions.report_error(translate("FeatureExtract", "Select a solid (a part with faces) first."))
             return
         if overlay.shown(obj):
             overlay.hide(obj)
             return
         import featureextract as fx
         from . import api, background
-        refs = _references(obj.Document)
+        refs = actions.references(obj.Document)
         try:  # the shape is read here, on the GUI thread; describing it (seconds on a real part) is not
             L = api.reference_shape(refs[0]).BoundBox.DiagonalLength if refs else obj.Shape.BoundBox.DiagonalLength / 5
             brep = api.target_shape(obj).exportBrepToString()
         except Exception as e:  # noqa: BLE001  (shown to the user as a sentence)
-            report_error(str(e))
+            actions.report_error(str(e))
             return
 
         def work(progress):
@@ -109,7 +49,7 @@ class Tessellate(BackgroundCommand):
 
         def done(kind, value):
             if kind == "error":
-                report_error(value)
+                actions.report_error(value)
                 return
             try:
                 alive = obj.Document is not None
@@ -136,11 +76,11 @@ class PickReference:
         return App.ActiveDocument is not None
 
     def Activated(self):
-        obj, names = _picked_faces()
+        obj, names = actions.picked_faces()
         if obj is None:
-            report_error(names)
+            actions.report_error(names)
             return
-        _do(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
+        actions.do(f"freecad.feature_extract.api.make_reference(App.getDocument('{obj.Document.Name}')"
             f".getObject('{obj.Name}'), {names!r})")
 
 
@@ -150,17 +90,17 @@ class SaveReference:
                 "ToolTip": translate("FeatureExtract", "Write the selected reference feature's faces to a BREP file")}
 
     def IsActive(self):
-        return App.ActiveDocument is not None and bool(_references(App.ActiveDocument))
+        return App.ActiveDocument is not None and bool(actions.references(App.ActiveDocument))
 
     def Activated(self):
         from PySide import QtGui
-        sel = [s.Object for s in Gui.Selection.getSelectionEx() if s.Object in _references(s.Object.Document)]
-        refs = sel or _references(App.ActiveDocument)
+        sel = [s.Object for s in Gui.Selection.getSelectionEx() if s.Object in actions.references(s.Object.Document)]
+        refs = sel or actions.references(App.ActiveDocument)
         path, _ = QtGui.QFileDialog.getSaveFileName(Gui.getMainWindow(), translate("FeatureExtract", "Save reference"),
                                                     refs[0].Label + ".brep", "BREP (*.brep *.brp)")
         if not path:
             return
-        _do(f"freecad.feature_extract.api.save_reference(App.getDocument('{refs[0].Document.Name}')"
+        actions.do(f"freecad.feature_extract.api.save_reference(App.getDocument('{refs[0].Document.Name}')"
             f".getObject('{refs[0].Name}'), {path!r})")
 
 
@@ -175,13 +115,13 @@ class Extract:
     def Activated(self):
         from .taskpanel import ExtractPanel
         doc = App.ActiveDocument
-        refs = _references(doc)
+        refs = actions.references(doc)
         if not refs:
-            report_error(translate("FeatureExtract", "Pick a reference feature first (select faces, then Pick reference)."))
+            actions.report_error(translate("FeatureExtract", "Pick a reference feature first (select faces, then Pick reference)."))
             return
-        target = _selected_solid() or refs[0].Source
+        target = actions.selected_solid() or refs[0].Source
         if target is None:
-            report_error(translate("FeatureExtract", "Select the solid to search."))
+            actions.report_error(translate("FeatureExtract", "Select the solid to search."))
             return
         Gui.Control.showDialog(ExtractPanel(target, refs))
 
@@ -200,9 +140,9 @@ class PlaceMesh(BackgroundCommand):
     def Activated(self, feature_dir=None):
         from PySide import QtGui
         from . import RESOURCES, api
-        target = _selected_solid()
+        target = actions.selected_solid()
         if target is None:
-            report_error(translate("FeatureExtract", "Select the solid to mesh first."))
+            actions.report_error(translate("FeatureExtract", "Select the solid to mesh first."))
             return
         if feature_dir is None:
             feature_dir = QtGui.QFileDialog.getExistingDirectory(
@@ -215,20 +155,20 @@ class PlaceMesh(BackgroundCommand):
             feature = fx.read_feature(feature_dir)
             job = api.prepare(target, feature.geometry_path)
         except Exception as e:  # noqa: BLE001
-            report_error(str(e))
+            actions.report_error(str(e))
             return
 
         def placed(_):
-            _do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
+            actions.do(f"freecad.feature_extract.api.place_meshes(App.getDocument('{target.Document.Name}')"
                 f".getObject('{target.Name}'), {feature_dir!r})")
             meshes = api.meshes_for(target)
             App.Console.PrintMessage(  # the user sees that it worked, and where (issue 11)
                 f"FeatureExtract: {len(meshes)} FE mesh(es) of {os.path.basename(os.path.normpath(feature_dir))} "
                 f"placed on {target.Label} ({sum(m.FemMesh.FaceCount + m.FemMesh.VolumeCount for m in meshes)} elements)\n")
 
-        self.start(translate("FeatureExtract", "Place feature FE meshes"),
-                   translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
-                   lambda progress: api.run(job, progress), placed)
+        actions.start(translate("FeatureExtract", "Place feature FE meshes"),
+                      translate("FeatureExtract", "Finding the instances of {name}...").format(name=feature.name),
+                      lambda progress: api.run(job, progress), placed)
 
 
 class MeshPart(BackgroundCommand):
@@ -254,9 +194,9 @@ class MeshPart(BackgroundCommand):
     def Activated(self, folder=None):
         from PySide import QtGui
         from . import RESOURCES, api
-        target = _selected_solid()
+        target = actions.selected_solid()
         if target is None:
-            report_error(translate("FeatureExtract", "Select the solid to mesh first."))
+            actions.report_error(translate("FeatureExtract", "Select the solid to mesh first."))
             return
         if folder is None:
             folder = QtGui.QFileDialog.getExistingDirectory(
@@ -266,16 +206,16 @@ class MeshPart(BackgroundCommand):
                 return
         dirs = self.feature_folders(folder) if os.path.isdir(folder) else []
         if not dirs:
-            report_error(translate("FeatureExtract", "{folder}: no feature.json there, nor in its subfolders.").format(folder=folder))
+            actions.report_error(translate("FeatureExtract", "{folder}: no feature.json there, nor in its subfolders.").format(folder=folder))
             return
         try:
             shape = api.target_shape(target)
         except Exception as e:  # noqa: BLE001
-            report_error(str(e))
+            actions.report_error(str(e))
             return
 
         def meshed(_):
-            _do(f"freecad.feature_extract.api.mesh_part(App.getDocument('{target.Document.Name}')"
+            actions.do(f"freecad.feature_extract.api.mesh_part(App.getDocument('{target.Document.Name}')"
                 f".getObject('{target.Name}'), {dirs!r})")
             meshes = [o for o in target.Document.Objects if o.Name.startswith("PartMesh")]
             if meshes:
@@ -283,23 +223,9 @@ class MeshPart(BackgroundCommand):
                 App.Console.PrintMessage(f"FeatureExtract: {target.Label} meshed whole: {m.NodeCount} nodes, "
                                          f"{m.VolumeCount or m.FaceCount} elements; solve it in the FEM workbench\n")
 
-        self.start(translate("FeatureExtract", "Mesh part with feature rules"),
-                   translate("FeatureExtract", "Meshing {name} with {n} feature(s)...").format(name=target.Label, n=len(dirs)),
-                   lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), meshed)
-
-
-def _picked_faces():
-    """(solid, ["Face3", ...]) of the faces selected on one solid, or a message saying what is wrong."""
-    sel = [s for s in Gui.Selection.getSelectionEx() if s.SubElementNames]
-    if not sel:
-        return None, translate("FeatureExtract", "Select one or more faces of a solid first.")
-    if len({s.Object.Name for s in sel}) > 1:
-        return None, translate("FeatureExtract", "Select faces of one solid only.")
-    names = [n for s in sel for n in s.SubElementNames]
-    bad = [n for n in names if not n.startswith("Face")]
-    if bad:
-        return None, translate("FeatureExtract", "Only faces can make a feature; the selection has ") + ", ".join(bad)
-    return sel[0].Object, names
+        actions.start(translate("FeatureExtract", "Mesh part with feature rules"),
+                      translate("FeatureExtract", "Meshing {name} with {n} feature(s)...").format(name=target.Label, n=len(dirs)),
+                      lambda progress: api.compute_part_mesh(target, dirs, progress=progress, shape=shape), meshed)
 
 
 class AddToLibrary(BackgroundCommand):
@@ -312,37 +238,8 @@ class AddToLibrary(BackgroundCommand):
                 "ToolTip": translate("FeatureExtract", "Make the faces selected on a solid a new feature of the feature library, "
                                                        "with an FE mesh and a thumbnail")}
 
-    def Activated(self, name=None, cls="", description="", lib=None, done=None):
-        from . import library
-        obj, faces = _picked_faces()
-        if obj is None:
-            report_error(faces)
-            return
-        lib = lib or library.default_library()
-        if name is None:
-            from PySide import QtGui
-            name, ok = QtGui.QInputDialog.getText(Gui.getMainWindow(), translate("FeatureExtract", "Add to the library"),
-                                                  translate("FeatureExtract", "Name of the new feature ({n} faces of {part}):")
-                                                  .format(n=len(faces), part=obj.Label))
-            if not ok:
-                return
-        if not name.strip():
-            report_error(translate("FeatureExtract", "A library feature needs a name."))
-            return
-        try:
-            library.face_numbers(obj, faces)  # a bad selection is said now, not after the child ran
-        except Exception as e:  # noqa: BLE001
-            report_error(str(e))
-            return
-
-        def added(folder):
-            App.Console.PrintMessage(f"FeatureExtract: {name.strip()} ({len(faces)} faces of {obj.Label}) added to "
-                                     f"the library {lib} as {folder}\n")
-
-        self.start(translate("FeatureExtract", "Add picked faces to the library"),
-                   translate("FeatureExtract", "Meshing {name} for the library...").format(name=name.strip()),
-                   lambda progress: library.add_faces(obj, faces, name, lib, cls, description, progress=progress), added,
-                   cancelled="nothing was added", done=done)
+    def Activated(self):
+        actions.add_picked_faces()
 
 
 class SearchLibrary(BackgroundCommand):
@@ -355,29 +252,8 @@ class SearchLibrary(BackgroundCommand):
                 "ToolTip": translate("FeatureExtract", "Find every instance of every feature of the feature library on the "
                                                        "selected solid; one result group per feature, in its own color")}
 
-    def Activated(self, lib=None, done=None):
-        from . import api, library
-        target = _selected_solid() or _only_solid(App.ActiveDocument)
-        if target is None:
-            report_error(translate("FeatureExtract", "Select the solid to search."))
-            return
-        lib = lib or library.default_library()
-        try:
-            shape = api.target_shape(target)
-            names = [f["name"] for f in library.features(lib)]
-        except Exception as e:  # noqa: BLE001
-            report_error(str(e))
-            return
-
-        def searched(result):
-            _do(f"freecad.feature_extract.library.search(App.getDocument('{target.Document.Name}')"
-                f".getObject('{target.Name}'), {lib!r})", module="freecad.feature_extract.library")
-            for line in library.summary(result):
-                App.Console.PrintMessage(f"FeatureExtract: {target.Label}: {line}\n")
-
-        self.start(translate("FeatureExtract", "Search the part with the library"),
-                   translate("FeatureExtract", "Searching {name} for {n} features...").format(name=target.Label, n=len(names)),
-                   lambda progress: library.compute(target, lib, progress=progress, shape=shape), searched, done=done)
+    def Activated(self):
+        actions.search_part()
 
 
 class Library:
@@ -394,15 +270,6 @@ class Library:
         Gui.Control.showDialog(LibraryPanel())
 
 
-def _only_solid(doc):
-    """The document's one visible solid, when there is exactly one (the "active part")."""
-    if doc is None:
-        return None
-    solids = [o for o in doc.Objects if (o.TypeId.startswith("Part::") or o.TypeId == "PartDesign::Body") and getattr(o, "Shape", None) is not None
-              and not o.Shape.isNull() and o.Shape.Solids and getattr(o, "Visibility", True)]
-    return solids[0] if len(solids) == 1 else None
-
-
 class ClearColors:
     def GetResources(self):
         return {"Pixmap": icon("ClearColors"), "MenuText": translate("FeatureExtract", "Clear result colors"),
@@ -412,14 +279,14 @@ class ClearColors:
         return App.ActiveDocument is not None
 
     def Activated(self):
-        from . import api
+        from .model import RESULT_GROUP, results_for
         from .objects import clear_colors
-        group = App.ActiveDocument.getObject(api.RESULT_GROUP)
+        group = App.ActiveDocument.getObject(RESULT_GROUP)
         targets = {r.Target.Name: r.Target for r in (group.Group if group else [])
                    if getattr(r, "Target", None) is not None}
         for t in targets.values():
             clear_colors(t)
-            for r in api.results_for(t):
+            for r in results_for(t):
                 r.ViewObject.Visibility = False
 
 

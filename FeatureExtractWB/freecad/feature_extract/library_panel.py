@@ -1,7 +1,7 @@
 """The feature library's task panel (issue 13): every feature with its thumbnail, class, description
 and meshing rules; the picked faces added as a new feature; the selected part searched with all of
-them. The work is done by the commands AddToLibrary and SearchLibrary (background, Cancel), so the
-panel and the toolbar do the same thing."""
+them. The work is done by actions.add_picked_faces and actions.search_part (background, Cancel), as
+the commands AddToLibrary and SearchLibrary do it, so the panel and the toolbar do the same thing."""
 import os
 
 import FreeCADGui as Gui
@@ -134,8 +134,7 @@ class LibraryPanel:
         self.search_button.setEnabled(not busy)
 
     def add_picked(self):
-        from . import commands
-        from .commands import AddToLibrary
+        from . import actions, background
         name = self.name.text().strip()
         if not name:
             self.status.setText(translate("FeatureExtract", "Give the new feature a name first."))
@@ -149,17 +148,16 @@ class LibraryPanel:
                 self.name.clear()
                 self.refresh(select=value)
             else:
-                self.status.setText(commands.last_error or translate("FeatureExtract", "Nothing was added."))
+                self.status.setText(actions.last_error or translate("FeatureExtract", "Nothing was added."))
 
-        commands.last_error = None
-        AddToLibrary().Activated(name, self.cls.text().strip(), self.description.text().strip(), self.library, done)
-        if AddToLibrary.running is None:  # refused before starting (the selection): said in the panel
+        actions.last_error = None
+        actions.add_picked_faces(name, self.cls.text().strip(), self.description.text().strip(), self.library, done)
+        if background.running is None:  # refused before starting (the selection): said in the panel
             self._busy(False)
-            self.status.setText(commands.last_error or "")
+            self.status.setText(actions.last_error or "")
 
     def search(self):
-        from . import commands
-        from .commands import SearchLibrary
+        from . import actions, background
         self._busy(True)
         self.status.setText(translate("FeatureExtract", "Searching..."))
 
@@ -171,13 +169,13 @@ class LibraryPanel:
                 self.status.setText(translate("FeatureExtract", "{n} instances of {k} features found; see the report view.")
                                     .format(n=found, k=kinds))
             else:
-                self.status.setText(commands.last_error or translate("FeatureExtract", "Cancelled; the document was not changed."))
+                self.status.setText(actions.last_error or translate("FeatureExtract", "Cancelled; the document was not changed."))
 
-        commands.last_error = None
-        SearchLibrary().Activated(self.library, done)
-        if SearchLibrary.running is None:  # refused before starting (no solid): said in the panel
+        actions.last_error = None
+        actions.search_part(self.library, done)
+        if background.running is None:  # refused before starting (no solid): said in the panel
             self._busy(False)
-            self.status.setText(commands.last_error or "")
+            self.status.setText(actions.last_error or "")
 
     # --- task dialog protocol
     def getStandardButtons(self):

@@ -3,6 +3,7 @@ headless); colors are applied by the view providers, never stored in the model."
 import FreeCAD as App
 
 from . import icon
+from .model import quality_color, reference_shape, results_for
 
 
 class _Stateless:
@@ -27,12 +28,6 @@ class _Stateless:
         return None
 
 
-def is_of_type(obj, name):
-    """True when obj is one of the workbench's document objects of that kind ("ReferenceFeature",
-    "ExtractionResult", "FeatureMesh"): its proxy's Type, which a reopened document keeps too."""
-    return getattr(getattr(obj, "Proxy", None), "Type", None) == "FeatureExtract::" + name
-
-
 class ReferenceFeature(_Stateless):
     """A reference feature: a list of faces (FaceN) of a source solid. Its Shape is their compound."""
 
@@ -44,7 +39,6 @@ class ReferenceFeature(_Stateless):
         obj.addProperty("App::PropertyStringList", "Faces", "Reference", "Faces of the source, e.g. Face3")
 
     def execute(self, obj):
-        from .api import reference_shape
         if obj.Source is not None and obj.Faces:
             obj.Shape = reference_shape(obj)
 
@@ -128,7 +122,6 @@ def color_by_quality(obj):
     vo = getattr(obj, "ViewObject", None)
     if vo is None or not obj.ElementIds or len(obj.ElementIds) != len(obj.ScaledJacobian):
         return False
-    from .api import quality_color
     try:
         vo.ElementColor = {int(e): quality_color(q) for e, q in zip(obj.ElementIds, obj.ScaledJacobian)}
     except Exception:  # noqa: BLE001  (an older FemGui without ElementColor: plain mesh color)
@@ -160,7 +153,6 @@ def recolor(target_obj):
     from PySide import QtCore
 
     def apply():
-        from .api import results_for
         vo = getattr(target_obj, "ViewObject", None)
         if vo is None:
             return

@@ -1,14 +1,13 @@
 """The Extract task panel: presets and every parameter (with unit and help as tooltip), a background
-run with a progress bar and Cancel. The UI never waits on the computation: the core runs in a Python
-thread with the GIL released, and a timer polls its progress. When it succeeds, a recorded (so
-replayable) `api.extract(...)` call adds the results, taking the computed result from the api's cache."""
-import threading
-
+run with a progress bar and Cancel. The UI never waits on the computation: it runs on the workbench's
+one background helper (background.py), which shows its progress in this panel's bar. When it
+succeeds, a recorded (so replayable) `api.extract(...)` call adds the results, taking the computed
+result from the api's cache."""
 import FreeCAD as App
 import FreeCADGui as Gui
 from PySide import QtCore, QtGui
 
-from . import translate
+from . import actions, background, translate
 
 PRESETS = {
     "Balanced": {},
@@ -39,9 +38,8 @@ class ExtractPanel:
         self.target = target
         self.references = references
         self.table = fx.param_table()
-        self.thread = None
-        self.cancel = False
-        self.progress = ("", 0.0)
+        self.running = None  # the background job of a run in progress
+        self.cancel_requested = False
         self.outcome = None  # ("ok", result) / ("error", message) / ("cancelled", None)
         self.finished = False
         self.created = []
@@ -133,9 +131,6 @@ class ExtractPanel:
         lay.addWidget(self.bar)
         lay.addWidget(self.status)
         lay.addLayout(buttons)
-        self.timer = QtCore.QTimer()
-        self.timer.setInterval(100)
-        self.timer.timeout.connect(self._poll)
 
     # --- parameters
     def _apply_preset(self):
@@ -168,7 +163,10 @@ class ExtractPanel:
     # --- the run
     def run(self):
         from . import api
-        if self.thread is not None:
+        if self.running is not None:
+            return
+        if background.running is not None:  # a command's job (one at a time: the core is busy)
+            self._finish(("error", translate("FeatureExtract", "Another FeatureExtract job is running; wait for it or cancel it.")))
             return
         ref = self.references[self.ref_box.currentIndex()]
         self.params = self.parameters()
@@ -179,46 +177,26 @@ class ExtractPanel:
             return
         self.reference = ref
         self.job = job
-        self.cancel = False
+        self.cancel_requested = False
         self.finished = False
         self.outcome = None
         self.run_button.setEnabled(False)
         self.cancel_button.setEnabled(True)
         self.status.setText(translate("FeatureExtract", "Running..."))
-
-        def progress(stage, fraction):
-            self.progress = (stage, fraction)
-            return not self.cancel
-
-        def work():
-            import featureextract as fx
-            try:
-                self.outcome = ("ok", api.run(job, progress))
-            except fx.Cancelled:
-                self.outcome = ("cancelled", None)
-            except Exception as e:  # noqa: BLE001
-                self.outcome = ("error", str(e))
-
-        self.thread = threading.Thread(target=work, daemon=True)
-        self.thread.start()
         self.bar.setValue(0)
-        self.timer.start()
+
+        def done(kind, value):
+            self.running = None
+            self._finish((kind, value))
+
+        self.running = background.start(None, None, lambda progress: api.run(job, progress), done, view=_PanelView(self))
 
     def request_cancel(self):
-        self.cancel = True
+        self.cancel_requested = True
         self.status.setText(translate("FeatureExtract", "Cancelling..."))
 
-    def _poll(self):
-        stage, fraction = self.progress
-        self.bar.setValue(int(100 * fraction))
-        if stage:
-            self.bar.setFormat(f"{stage} %p%")
-        if self.thread is not None and not self.thread.is_alive():
-            self.timer.stop()
-            self.thread = None
-            self._finish(self.outcome or ("error", "the run stopped without a result"))
-
     def _finish(self, outcome):
+        self.outcome = outcome
         kind, value = outcome
         self.run_button.setEnabled(True)
         self.cancel_button.setEnabled(False)
@@ -252,8 +230,7 @@ class ExtractPanel:
             msg = value
         self.status.setText(msg)
         if kind == "error":
-            from .commands import report_error
-            report_error(msg)
+            actions.report_error(msg)
         else:
             App.Console.PrintMessage("FeatureExtract: " + msg + "\n")
         self.finished = True
@@ -264,15 +241,31 @@ class ExtractPanel:
 
     def reject(self):
         global current
-        if self.thread is not None:
+        if self.running is not None:
             # the worker stops at its next progress report; its outcome is dropped (nothing is added)
-            self.cancel = True
-            self.thread.join(timeout=2)
-            self.thread = None
-        self.timer.stop()
+            self.running.abandon()
+            self.running = None
         Gui.Control.closeDialog()
         current = None
         return True
 
     def accept(self):
         return self.reject()
+
+
+class _PanelView:
+    """The panel's progress bar and Cancel button as the background job's view."""
+
+    def __init__(self, panel):
+        self.panel = panel
+
+    def show(self, stage, fraction):
+        self.panel.bar.setValue(int(100 * fraction))
+        if stage:
+            self.panel.bar.setFormat(f"{stage} %p%")
+
+    def cancelled(self):
+        return self.panel.cancel_requested
+
+    def close(self):
+        pass
