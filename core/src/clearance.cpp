@@ -6,11 +6,13 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <unordered_map>
 
 namespace fe {
 
-Clearance::Clearance(const Points& points, const Points& normals, const std::vector<Eigen::Index>& rows, const Distance& reference_distance,
+Clearance::Clearance(const Points& points, const Points& normals, const std::vector<Eigen::Index>& rows, const Nearest& reference_nearest,
                      const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double step, double margin)
     : step_(step) {
   if (!(step > 0)) return;
@@ -22,29 +24,58 @@ Clearance::Clearance(const Points& points, const Points& normals, const std::vec
     if (!o.allFinite() || !(n.norm() > 0.5)) continue;
     const Eigen::Vector3d d = n.normalized();
     double t = start;
+    Ray ray{o, d};
     for (;; t += step) {
       const Eigen::Vector3d x = o + t * d;
       if ((x.array() < blo.array()).any() || (x.array() > bhi.array()).any()) break;
-      if (reference_distance(x) < 1.5 * step) break;
+      const Eigen::Vector3d q = reference_nearest(x);
+      const double rd = q.allFinite() ? (q - x).norm() : INFINITY;
+      if (rd < 1.5 * step) {
+        ray.met = true;
+        break;
+      }
+      if (t >= 2 * start && rd < ray.clear) {  // (past where its own face is the nearest)
+        ray.clear = rd;
+        ray.near_ray = x;
+        ray.near_reference = q;
+      }
     }
     // the last stretch before the reference is met again is left out: the target surface may lie
     // there within the sampling of either surface
-    const double free = t - 2 * step;
-    if (free > start) rays_.push_back({o, d, free});
+    ray.free = t - 2 * step;
+    ray.end = t;
+    if (ray.free > start) rays_.push_back(ray);
   }
 }
 
 double Clearance::obstructed(const Eigen::Matrix4d& H, const Distance& target_distance, double target_hit, double skip) const {
   if (rays_.empty()) return 0;
   int blocked = 0, checked = 0;
-  const double start = std::max(3 * step_, skip);
   for (const Ray& r : rays_) {
-    if (r.free <= start) continue;
+    // The stretches left out at either end are meant at the map's scale s; along a direction the
+    // map stretches by l instead (a pocket mapped 0.35x across, 1.3x deep), they are taken s / l
+    // times as long, so that they keep their length on the target.
+    const Eigen::Matrix3d J = transform_jacobian(H, r.origin);
+    const double l = (J * r.direction).norm(), s = std::cbrt(std::abs(J.determinant()));
+    const double k = l > 0 && s > 0 && std::isfinite(l) && std::isfinite(s) ? s / l : 1.0;
+    const double start = std::max(3 * step_, skip) * k;
+    // A ray that left the box runs on at least as far as the map's scale takes it: a step's open side
+    // mapped onto a hexagonal passage's walls, squeezed 0.36x, must still reach the walls across.
+    const double free = r.met ? r.end - 2 * step_ * k : (r.end - 2 * step_) * std::max(1.0, k);
+    if (free <= start || r.free <= std::max(3 * step_, skip)) continue;
+    // A ray that passes the reference's own surface closer than the target hit distance, once the map
+    // has squeezed it (a floor's ray beside the walls of a pocket mapped 0.4x across), cannot tell
+    // free space from that surface: it is not counted.
+    if (std::isfinite(r.clear) && (apply_transform(H, r.near_ray) - apply_transform(H, r.near_reference)).norm() < target_hit) continue;
     ++checked;
-    for (double t = start; t <= r.free; t += step_) {
+    const double dt = step_ * std::min(1.0, k);
+    for (double t = start; t <= free; t += dt) {
       const Eigen::Vector3d y = apply_transform(H, r.origin + t * r.direction);
       if (!y.allFinite()) break;
       if (target_distance(y) < target_hit) {
+        if (std::getenv("FE_DEBUG_RAYS"))
+          std::fprintf(stderr, "  ray from (%.2f %.2f %.2f) dir (%.2f %.2f %.2f) free %.2f blocked at t %.2f -> (%.2f %.2f %.2f)\n", r.origin.x(), r.origin.y(),
+                       r.origin.z(), r.direction.x(), r.direction.y(), r.direction.z(), free, t, y.x(), y.y(), y.z());
         ++blocked;
         break;
       }

@@ -45,7 +45,8 @@ std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& 
           {"planar_curvedness", p.planar_curvedness}, {"shot_radius", p.shot_radius},
           {"shot_radii", p.shot_radii},               {"shot_radius_ratio", p.shot_radius_ratio},
           {"si_band", p.si_band},                     {"ridge_rut_spacing", p.ridge_rut_spacing},
-          {"crease_key_points", p.crease_key_points ? 1.0 : 0.0}};
+          {"crease_key_points", p.crease_key_points ? 1.0 : 0.0},
+          {"topology_hypotheses", p.topology_hypotheses ? 1.0 : 0.0}};
 }
 
 namespace {
@@ -190,6 +191,11 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   d->timings.push_back({who + "_shot", sw.lap()});
   d->dense_tree = std::make_shared<KdTree3>(d->dense.points);
   d->sparse_points = sparse.points;
+  if (p.topology_hypotheses) {
+    report(progress, who + ": regions", 0);
+    d->regions = region_graph(mesh);
+    d->timings.push_back({who + "_regions", sw.lap()});
+  }
 
   ShapeStats& s = d->stats;
   s.triangles = static_cast<std::size_t>(mesh.triangles.rows());

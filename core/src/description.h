@@ -4,6 +4,7 @@
 
 #include "featureextract/extract.h"
 #include "kdtree.h"
+#include "regions.h"
 #include "shot.h"
 
 #include <chrono>
@@ -28,6 +29,7 @@ struct ShapeDescription::Impl {
   ShotSet shot;
   int m = 0, D = 0, U = 0;  // radii per descriptor; target ladder steps below / above
   Eigen::Vector3d box_min, box_max;
+  RegionGraph regions;  // regions bounded by sharp edges and how they meet (topology.h)
   ShapeStats stats;
   std::vector<std::pair<std::string, double>> timings;
   std::vector<std::string> warnings;

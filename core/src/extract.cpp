@@ -16,6 +16,7 @@
 #include "pairing.h"
 #include "placements.h"
 #include "refine.h"
+#include "topology.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -28,6 +29,24 @@
 #include <sstream>
 
 namespace fe {
+
+namespace {
+// Topology fits whose costs differ by less than this (x L) are equally good (topology.h).
+constexpr double kTopologyTie = 0.005;
+
+// The region of a reference dense sample (-1: none).
+int region_of_sample(const RegionGraph& g, const ShapeDescription::Impl& R, std::size_t i) {
+  const int t = R.dense.triangle_ids(static_cast<Eigen::Index>(i));
+  return t >= 0 && static_cast<std::size_t>(t) < g.triangle_region.size() ? g.triangle_region[static_cast<std::size_t>(t)] : -1;
+}
+
+// "target regions 3,7,12" for the debug trace
+std::string topology_name(const TopologyHypothesis& h) {
+  std::string n = "regions";
+  for (std::size_t i = 0; i < h.image.size(); ++i) n += (i ? "," : " ") + std::to_string(h.image[i]);
+  return n;
+}
+}  // namespace
 
 Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, const TriangleMesh& tmesh, const Params& p,
                   const ProgressFn& progress, const FeatureCore& core);
@@ -124,7 +143,31 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
 
   // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds; each hypothesis
   // refined on the surface and judged on the feature's core.
-  const HypothesisScorer scorer(R, T, p, core);
+  // The reference's regions, with the context where a box cut it (topology.h). When the regions that
+  // do not reach a cut side hold most of the core, the core is those regions': the walls of a
+  // passage without the pieces of its neighbour that the box took along.
+  RegionGraph rg = R.regions;
+  FeatureCore judged = core;
+  if (core.set && rg.size() > 0) {
+    std::array<bool, 6> sides{};
+    for (int a = 0; a < 3; ++a) {
+      sides[static_cast<std::size_t>(2 * a)] = core.lo(a) > R.box_min(a);
+      sides[static_cast<std::size_t>(2 * a + 1)] = core.hi(a) < R.box_max(a);
+    }
+    mark_cut(rg, R.box_min, R.box_max, sides, 2e-3 * L);
+    auto mask = std::make_shared<std::vector<char>>(R.dense.size(), 0);
+    std::size_t in_box = 0, kept = 0;
+    for (std::size_t i = 0; i < R.dense.size(); ++i) {
+      if (!core.contains(R.dense.points.row(static_cast<Eigen::Index>(i)).transpose())) continue;
+      ++in_box;
+      const int r = region_of_sample(rg, R, i);
+      if (r < 0 || rg.regions[static_cast<std::size_t>(r)].cut) continue;
+      (*mask)[i] = 1;
+      ++kept;
+    }
+    if (kept > 0 && 2 * kept >= in_box) judged.dense_feature = mask;
+  }
+  const HypothesisScorer scorer(R, T, p, judged);
   const SurfaceRefinement refinement(R, T, p, scorer);
   if (refinement.symmetry().axisymmetric) {
     res.symmetry = "axisymmetric";
@@ -136,6 +179,29 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   };
   const bool debug = std::getenv("FE_DEBUG") != nullptr;  // trace of every RANSAC outcome on stderr
   std::vector<Instance> found;
+  // An accepted hypothesis becomes an instance with the target region it covers.
+  auto add_instance = [&](const Eigen::Matrix4d& H, double s, const Evidence& ev, const KdTree3& mtree, double rms_unrefined, int pairs_explained) {
+    const Deformation& df = ev.deformation;
+    Instance inst;
+    Match& mt = inst.match;
+    mt.transform = H;
+    mt.score = ev.score;
+    mt.max_error = ev.error * s;
+    mt.rms_error = ev.rms;
+    mt.rms_error_unrefined = rms_unrefined;
+    mt.scale = s;
+    mt.pairs = pairs_explained;
+    mt.key_agreement = ev.key_agreement;
+    mt.stretch_min = df.scale_min;
+    mt.stretch_max = df.scale_max;
+    mt.perspective = df.perspective;
+    mt.obstructed = ev.obstructed;
+    // covered: the target within the fit's error of the mapped reference (twice its quantile error,
+    // at most the acceptance tolerance), and a sample spacing: an exact fit of a passage does not
+    // reach across the 0.8 mm of material to the passage above it
+    const double reach = std::min(ev.tolerance, 2 * ev.error * s + 0.5 * R.dense_h * s) + R.dense_h * s;
+    if (cover_target(ev.mapped, mtree, reach, T, tmesh, p.face_coverage, inst)) found.push_back(std::move(inst));
+  };
   std::uint64_t run = 0;
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
     std::vector<KeyPointPair> pairs = cluster_pairs[order[oi]];
@@ -239,24 +305,95 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         continue;
       }
       failures = 0;
-      Instance inst;
-      Match& mt = inst.match;
-      mt.transform = H;
-      mt.score = ev.score;
-      mt.max_error = ev.error * s;
-      mt.rms_error = ev.rms;
-      mt.rms_error_unrefined = chosen.rms_unrefined;
-      mt.scale = s;
-      mt.pairs = static_cast<int>(explained);
-      mt.key_agreement = ev.key_agreement;
-      mt.stretch_min = df.scale_min;
-      mt.stretch_max = df.scale_max;
-      mt.perspective = df.perspective;
-      mt.obstructed = ev.obstructed;
-      if (cover_target(ev.mapped, mtree, tol + R.dense_h * s, T, tmesh, p.face_coverage, inst)) found.push_back(std::move(inst));
+      add_instance(H, s, ev, mtree, chosen.rms_unrefined, static_cast<int>(explained));
     }
   }
   res.timings.push_back({"ransac", sw.lap()});
+
+  // Step 6b (issue 9): hypotheses from how the reference's faces meet, for the instances whose
+  // proportions or plain faces the SHOT pairs miss (topology.h); judged like RANSAC's.
+  if (p.topology_hypotheses && R.regions.size() >= 2 && T.regions.size() >= 2) {
+    report(progress, "topology", 0);
+    const TopologyMatch tm = topology_hypotheses(rg, T.regions);
+    res.topology_matches = tm.matches;
+    // Its hypotheses are judged on the faces matched (the feature), not on the context a box took
+    // along (a piece of the slot over the passage), when that differs from the scorer's core.
+    std::vector<char> in_match(rg.size(), 0);
+    for (int r : tm.matched) in_match[static_cast<std::size_t>(r)] = rg.regions[static_cast<std::size_t>(r)].cut ? 2 : 1;
+    auto mask = std::make_shared<std::vector<char>>(R.dense.size(), 0);
+    bool everything = true;
+    for (std::size_t i = 0; i < R.dense.size(); ++i) {
+      const int r = region_of_sample(rg, R, i);
+      (*mask)[i] = r >= 0 ? in_match[static_cast<std::size_t>(r)] : 0;
+      everything = everything && (*mask)[i] == 1;
+    }
+    FeatureCore topology_core;
+    topology_core.set = true;
+    topology_core.dense_feature = mask;
+    // A topology match has matched every face, so the stretch bounds are wider (topology_*).
+    Params pt = p;
+    pt.axis_scale_min = std::min(p.axis_scale_min, p.topology_axis_scale_min);
+    pt.axis_scale_max = std::max(p.axis_scale_max, p.topology_axis_scale_max);
+    pt.max_anisotropy = std::max(p.max_anisotropy, p.topology_max_anisotropy);
+    pt.volume_ratio_min = std::min(p.volume_ratio_min, std::pow(pt.axis_scale_min, 3));
+    pt.volume_ratio_max = std::max(p.volume_ratio_max, std::pow(pt.axis_scale_max, 3));
+    // Key point agreement guards RANSAC's fits of five key points; here every face and corner was
+    // matched, and stretched crease key points fall between the target's (a hexagonal pocket at
+    // 0.3x: 0.38 of them agree, the pocket itself 0.50).
+    pt.min_key_agreement = 0;
+    const HypothesisScorer scorer(R, T, pt, everything ? judged : topology_core);
+    const SurfaceRefinement refinement(R, T, pt, scorer);
+    const int groups = tm.hypotheses.empty() ? 0 : tm.hypotheses.back().group + 1;
+    for (std::size_t i = 0; i < tm.hypotheses.size();) {
+      // One group: the fits onto one set of target regions; the one the surface agrees with best.
+      const int g = tm.hypotheses[i].group;
+      report(progress, "topology", static_cast<double>(g) / static_cast<double>(groups));
+      // Of fits the surface agrees with about equally (a turned rectangle on a rectangle), the first:
+      // proper and least stretched.
+      std::vector<std::pair<double, double>> costs;  // (cost, scale) per fit of the group, inf out of bounds
+      const std::size_t first = i;
+      double low = INFINITY;
+      for (; i < tm.hypotheses.size() && tm.hypotheses[i].group == g; ++i) {
+        const TopologyHypothesis& h = tm.hypotheses[i];
+        double s0 = 1;
+        double c = INFINITY;
+        if (scorer.bounds_ok(h.H, &s0)) {
+          c = scorer.cost(h.H, low + kTopologyTie * L);
+          if (debug) std::fprintf(stderr, "debug: topology %s: cost %.4f L\n", topology_name(h).c_str(), c / L);
+        } else if (debug) {
+          const Deformation df = deformation(h.H, scorer.key_box_min(), scorer.key_box_max());
+          std::fprintf(stderr, "debug: topology %s: out of bounds (%s: vol %.2f stretch %.2f..%.2f)\n", topology_name(h).c_str(),
+                       deformation_outside(df, pt), df.volume_ratio, df.scale_min, df.scale_max);
+        }
+        low = std::min(low, c);
+        costs.emplace_back(c, s0);
+      }
+      const TopologyHypothesis* pick = nullptr;
+      Polished chosen;
+      for (std::size_t k = 0; k < costs.size() && !pick; ++k)
+        if (costs[k].first <= low + kTopologyTie * L) {
+          pick = &tm.hypotheses[first + k];
+          chosen.H = pick->H;
+          chosen.s = costs[k].second;
+          chosen.cost = costs[k].first;
+          chosen.rms_unrefined = pick->residual;
+        }
+      if (!pick || !(chosen.cost < scorer.normal_penalty())) continue;
+      const Polished pol = refinement.polish(pick->H, chosen.cost, pick->ref_points, pick->tgt_points);
+      if (pol.cost < chosen.cost) chosen = pol;
+      const Evidence ev = scorer.evaluate(chosen.H, chosen.s, debug);
+      if (debug) {
+        const Deformation& df = ev.deformation;
+        std::fprintf(stderr, "debug: topology %s residual %.4f L: err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f obstructed %.2f partial %.2f -> %s%s\n",
+                     topology_name(*pick).c_str(), pick->residual / L, ev.error / L, ev.score, ev.key_agreement, df.volume_ratio, df.scale_min,
+                     df.scale_max, ev.obstructed, ev.partial_faces, ev.accepted() ? "accepted" : "rejected by ", ev.failed().c_str());
+      }
+      if (!ev.accepted()) continue;
+      const KdTree3 mtree(ev.mapped);
+      add_instance(chosen.H, chosen.s, ev, mtree, pick->residual, 0);
+    }
+    res.timings.push_back({"topology", sw.lap()});
+  }
 
   // Each instance once: the better-scoring of two overlapping instances wins.
   report(progress, "result", 0);

@@ -47,12 +47,22 @@ std::string Evidence::failed() const {
 }
 
 namespace {
-// Rows of x inside the feature core; all of them when too little would be left.
-std::vector<Eigen::Index> core_rows(const Points& x, const FeatureCore& core) {
+// Rows of x inside the feature core; all of them when too little would be left. `dense`: x are the
+// reference's dense samples (else points whose nearest dense sample decides, with a mask).
+std::vector<Eigen::Index> core_rows(const Points& x, const FeatureCore& core, const ShapeDescription::Impl& R, bool dense) {
   std::vector<Eigen::Index> r;
-  for (Eigen::Index i = 0; i < x.rows(); ++i)
-    if (core.contains(x.row(i).transpose())) r.push_back(i);
-  if (r.size() < 20 || r.size() * 10 < static_cast<std::size_t>(x.rows())) {  // too little left: all is feature
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    bool in;
+    if (core.dense_feature) {
+      const Eigen::Index j = dense ? i : R.dense_tree->nearest(x.row(i).transpose());
+      in = j >= 0 && (*core.dense_feature)[static_cast<std::size_t>(j)] != 0;
+    } else {
+      in = core.contains(x.row(i).transpose());
+    }
+    if (in) r.push_back(i);
+  }
+  // too little left: all is feature (a mask of matched faces is exact: only when it leaves nothing)
+  if (core.dense_feature ? r.empty() : r.size() < 20 || r.size() * 10 < static_cast<std::size_t>(x.rows())) {
     r.resize(static_cast<std::size_t>(x.rows()));
     std::iota(r.begin(), r.end(), Eigen::Index{0});
   }
@@ -63,8 +73,8 @@ std::vector<Eigen::Index> core_rows(const Points& x, const FeatureCore& core) {
 HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeDescription::Impl& T, const Params& p,
                                    const FeatureCore& core)
     : R_(R), T_(T), p_(p), L_(R.L) {
-  core_keys_ = core_rows(R.keys, core);
-  core_dense_ = core_rows(R.dense.points, core);
+  core_keys_ = core_rows(R.keys, core, R, false);
+  core_dense_ = core_rows(R.dense.points, core, R, true);
   if (std::getenv("FE_DEBUG") && core.set)
     std::fprintf(stderr, "debug: feature core (%.1f %.1f %.1f)..(%.1f %.1f %.1f): %zu of %ld key points, %zu of %zu dense samples\n", core.lo.x(), core.lo.y(),
                  core.lo.z(), core.hi.x(), core.hi.y(), core.hi.z(), core_keys_.size(), static_cast<long>(R.keys.rows()), core_dense_.size(), R.dense.size());
@@ -88,19 +98,31 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
   tkey_tree_ = std::make_unique<KdTree3>(T.keys);
   // Free space in front of the reference's surface (clearance.h), from its core samples.
   const KdTree3& rtree = *R.dense_tree;
+  // (the rays leave at the box of the feature's faces when they are known: what a box cut took along
+  // around them differs from instance to instance)
+  Eigen::Vector3d flo = R.box_min, fhi = R.box_max;
+  if (core.dense_feature && !core_dense_.empty()) {
+    flo.setConstant(INFINITY);
+    fhi.setConstant(-INFINITY);
+    for (const Eigen::Index i : core_dense_) {
+      flo = flo.cwiseMin(R.dense.points.row(i).transpose());
+      fhi = fhi.cwiseMax(R.dense.points.row(i).transpose());
+    }
+  }
   clearance_ = std::make_unique<Clearance>(R.dense.points, R.dense_normals, stride_subset(core_dense_, 400),
-                                           [&rtree](const Eigen::Vector3d& x) {
-                                             double d2;
-                                             return rtree.nearest(x, &d2) < 0 ? INFINITY : std::sqrt(d2);
+                                           [&rtree, &R](const Eigen::Vector3d& x) -> Eigen::Vector3d {
+                                             const int j = rtree.nearest(x);
+                                             return j < 0 ? Eigen::Vector3d::Constant(INFINITY) : Eigen::Vector3d(R.dense.points.row(j).transpose());
                                            },
-                                           R.box_min, R.box_max, R.dense_h, p.clearance_margin * L_);
+                                           flo, fhi, R.dense_h, p.clearance_margin * L_);
   // Whole faces (clearance.h): reference faces all of whose samples are feature, with enough samples
   // to measure their area, must land on whole target faces.
   if (R.dense.face_ids.size() && T.dense.face_ids.size() && p.max_partial_faces < 1) {
     const int nf = std::max(R.dense.face_ids.maxCoeff(), 0) + 1;
     std::vector<int> in_core(static_cast<std::size_t>(nf), 0), all(static_cast<std::size_t>(nf), 0);
     for (Eigen::Index i = 0; i < R.dense.face_ids.size(); ++i) ++all[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
-    for (const Eigen::Index i : core_dense_) ++in_core[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
+    for (const Eigen::Index i : core_dense_)
+      if (!core.dense_feature || (*core.dense_feature)[static_cast<std::size_t>(i)] == 1) ++in_core[static_cast<std::size_t>(std::max(R.dense.face_ids(i), 0))];
     whole_faces_.checked.assign(static_cast<std::size_t>(nf), 0);
     for (int f = 1; f < nf; ++f) whole_faces_.checked[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)] >= 20 && in_core[static_cast<std::size_t>(f)] == all[static_cast<std::size_t>(f)];
     whole_faces_.reference = &R.dense;
@@ -225,6 +247,22 @@ double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
 Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all) const {
   Evidence ev;
   ev.error = quantile_error(H);
+  if (std::getenv("FE_DEBUG_ERR")) {
+    const Eigen::Index nk = static_cast<Eigen::Index>(stride_subset(core_keys_, 300).size());
+    int kfar = 0, knorm = 0, dfar = 0, dnorm = 0;
+    for (Eigen::Index i = 0; i < eval_pts_.rows(); ++i) {
+      const Eigen::Vector3d x = eval_pts_.row(i);
+      int j;
+      const double e = surface_distance(T_, apply_transform(H, x), &j) / s;
+      const bool far = !(e < normal_penalty_);
+      const bool bad = !far && j >= 0 && (transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized().dot(T_.dense_normals.row(j)) < 0.5;
+      if (i < nk) { kfar += far; knorm += bad; } else { dfar += far; dnorm += bad; }
+      if ((far || bad) && std::getenv("FE_DEBUG_ERR")[0] == '2')
+        std::fprintf(stderr, "  %s %.3f %.3f %.3f e %.4f %s\n", i < nk ? "key" : "dense", x.x(), x.y(), x.z(), e, far ? "far" : "normal");
+    }
+    std::fprintf(stderr, "debug: errors: keys %ld (far %d, normal %d), dense %ld (far %d, normal %d)\n", static_cast<long>(nk), kfar, knorm,
+                 static_cast<long>(eval_pts_.rows() - nk), dfar, dnorm);
+  }
   const double tol = p_.accept_error * L_ * s;
   ev.tolerance = tol;
   // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.

@@ -26,6 +26,10 @@ namespace fe {
 struct FeatureCore {
   bool set = false;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(-INFINITY), hi = Eigen::Vector3d::Constant(INFINITY);
+  /// When given, it decides instead of the box: per dense sample of the reference, 0 = context,
+  /// 1 = feature, 2 = feature whose face was cut short (not held to the whole-faces check). Key points
+  /// take their nearest dense sample's. (The faces a topology match holds, topology.h.)
+  std::shared_ptr<const std::vector<char>> dense_feature;
   bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
 };
 constexpr double kContextMargin = 0.2;

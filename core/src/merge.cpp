@@ -1,6 +1,9 @@
 // Each instance once (merge.h).
 #include "merge.h"
 
+#include <cstdio>
+#include <cstdlib>
+
 #include <algorithm>
 #include <iterator>
 
@@ -25,6 +28,9 @@ std::vector<Match> merge_instances(std::vector<Instance> found, double max_overl
       const double denom = static_cast<double>(std::min(f.covered.size(), k->covered.size()));
       dup = dup || static_cast<double>(both.size()) > max_overlap * denom;
     }
+    if (std::getenv("FE_DEBUG"))
+      std::fprintf(stderr, "debug: instance at (%.1f %.1f %.1f) score %.3f, %zu samples covered: %s\n", f.match.center.x(), f.match.center.y(),
+                   f.match.center.z(), f.match.score, f.covered.size(), dup ? "merged into a better one" : "kept");
     if (!dup) kept.push_back(&f);
   }
   std::vector<Match> out;
@@ -68,6 +74,7 @@ void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, cons
   res.pairs_shot += mirrored.pairs_shot;
   res.pairs_ss += mirrored.pairs_ss;
   res.clusters += mirrored.clusters;
+  res.topology_matches += mirrored.topology_matches;
   for (const auto& t : mirrored.timings)
     if (t.first.rfind("target_", 0) != 0) res.timings.push_back({"mirror_" + t.first, t.second});
 }

@@ -43,6 +43,13 @@ struct Cloud {
     *d = bd;
     return best;
   }
+  fe::Clearance::Nearest nearest_point() const {
+    return [this](const Eigen::Vector3d& q) -> Eigen::Vector3d {
+      double d;
+      const int i = nearest(q, &d);
+      return i < 0 ? Eigen::Vector3d::Constant(INFINITY) : p[static_cast<std::size_t>(i)];
+    };
+  }
   fe::Clearance::Distance distance() const {
     return [this](const Eigen::Vector3d& q) {
       double d;
@@ -69,7 +76,7 @@ TEST(Clearance, ASlotsOtherWallObstructsTheStepsOpenSide) {
   const fe::Samples rs = ref.samples();
   std::vector<Eigen::Index> rows(rs.size());
   for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = static_cast<Eigen::Index>(i);
-  const fe::Clearance c(rs.points, rs.normals, rows, ref.distance(), {0, 0, 0}, {2, 4, 2}, kH, 0.3);
+  const fe::Clearance c(rs.points, rs.normals, rows, ref.nearest_point(), {0, 0, 0}, {2, 4, 2}, kH, 0.3);
   ASSERT_GT(c.rays(), 100u);
   const Eigen::Matrix4d I = Eigen::Matrix4d::Identity();
   // on a step like itself nothing is in the way
@@ -84,6 +91,55 @@ TEST(Clearance, ASlotsOtherWallObstructsTheStepsOpenSide) {
   Cloud wide = step();
   wide.rect({3, 0, 0}, {0, 4, 0}, {0, 0, 2}, {-1, 0, 0}, 3, kH);
   EXPECT_LT(c.obstructed(I, wide.distance(), 1.5 * kH, 0), 0.02);
+}
+
+// A channel 4 long (y): its floor (z = 0, x 0..w) between two walls 1 high facing each other.
+Cloud channel(double w) {
+  Cloud c;
+  c.rect({0, 0, 0}, {w, 0, 0}, {0, 4, 0}, {0, 0, 1}, 1, kH);
+  c.rect({0, 0, 0}, {0, 4, 0}, {0, 0, 1}, {1, 0, 0}, 2, kH);
+  c.rect({w, 0, 0}, {0, 4, 0}, {0, 0, 1}, {-1, 0, 0}, 3, kH);
+  return c;
+}
+
+std::vector<Eigen::Index> all_rows(const fe::Samples& s) {
+  std::vector<Eigen::Index> rows(s.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = static_cast<Eigen::Index>(i);
+  return rows;
+}
+
+TEST(Clearance, AChannelSqueezedAcrossIsNotObstructedByItsOwnWalls) {
+  // issue 9: a machined pocket matched at 0.4x across (a topology match). The floor's rays run up
+  // beside the walls; squeezed, the samples next to a wall would see it within the hit distance.
+  const Cloud ref = channel(2);
+  const fe::Samples rs = ref.samples();
+  const fe::Clearance c(rs.points, rs.normals, all_rows(rs), ref.nearest_point(), {0, 0, 0}, {2, 4, 1}, kH, 0.3);
+  const Cloud narrow = channel(0.8);
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H(0, 0) = 0.4;
+  EXPECT_LT(c.obstructed(H, narrow.distance(), 1.5 * kH, 0), 0.05);
+  // the same map onto a channel whose floor is crossed by a rib halfway up is obstructed
+  Cloud ribbed = channel(0.8);
+  ribbed.rect({0, 0, 0.5}, {0.8, 0, 0}, {0, 4, 0}, {0, 0, -1}, 4, kH);
+  EXPECT_GT(c.obstructed(H, ribbed.distance(), 1.5 * kH, 0), 0.3);
+}
+
+TEST(Clearance, RaysLeavingTheBoxReachAsFarAsTheMapsScale) {
+  // A step squeezed 0.4x along its open side (x) onto two walls of a passage whose far wall stands
+  // at x = 1.5: the wall's rays left the reference's box at x = 2.3, 0.92 once squeezed; at the
+  // map's scale (0.74) they reach the far wall, which a step has no business meeting.
+  const Cloud ref = step();
+  const fe::Samples rs = ref.samples();
+  const fe::Clearance c(rs.points, rs.normals, all_rows(rs), ref.nearest_point(), {0, 0, 0}, {2, 4, 2}, kH, 0.3);
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H(0, 0) = 0.4;
+  Cloud squeezed;
+  squeezed.rect({0, 0, 0}, {0.8, 0, 0}, {0, 4, 0}, {0, 0, 1}, 1, kH);
+  squeezed.rect({0, 0, 0}, {0, 4, 0}, {0, 0, 2}, {1, 0, 0}, 2, kH);
+  EXPECT_LT(c.obstructed(H, squeezed.distance(), 1.5 * kH, 0), 0.02);
+  Cloud passage = squeezed;
+  passage.rect({1.5, 0, 0}, {0, 4, 0}, {0, 0, 2}, {-1, 0, 0}, 3, kH);
+  EXPECT_GT(c.obstructed(H, passage.distance(), 1.5 * kH, 0), 0.3);
 }
 
 TEST(WholeFaces, AFaceOnPartOfALargerFaceIsPartialUntilTheFitCoversIt) {

@@ -21,11 +21,13 @@ class Clearance {
  public:
   /// Distance from a point to the nearest sample of a surface.
   using Distance = std::function<double(const Eigen::Vector3d&)>;
+  /// The nearest sample of a surface to a point (not finite when there is none).
+  using Nearest = std::function<Eigen::Vector3d(const Eigen::Vector3d&)>;
 
   /// Rays from `rows` of the reference samples `points` along `normals` (outward), marched in steps
-  /// of `step`; a ray stops where `reference_distance` falls below 1.5 `step` (the reference itself)
-  /// or `margin` past the box lo..hi. Rays with no free length are dropped.
-  Clearance(const Points& points, const Points& normals, const std::vector<Eigen::Index>& rows, const Distance& reference_distance,
+  /// of `step`; a ray stops where the reference (its nearest sample `reference_nearest`) comes within
+  /// 1.5 `step`, or `margin` past the box lo..hi. Rays with no free length are dropped.
+  Clearance(const Points& points, const Points& normals, const std::vector<Eigen::Index>& rows, const Nearest& reference_nearest,
             const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double step, double margin);
 
   /// Fraction of the rays that H (reference -> target) makes meet target surface (where
@@ -39,6 +41,12 @@ class Clearance {
   struct Ray {
     Eigen::Vector3d origin, direction;
     double free = 0;  // free length (reference units)
+    double end = 0;   // where it met the reference again or left the box
+    bool met = false; // it met the reference again
+    // where it passes closest to the reference surface (past its own face): the ray's point and the
+    // reference's, which a map may squeeze together (clear = INFINITY: nowhere)
+    double clear = INFINITY;
+    Eigen::Vector3d near_ray = Eigen::Vector3d::Zero(), near_reference = Eigen::Vector3d::Zero();
   };
   std::vector<Ray> rays_;
   double step_ = 0;

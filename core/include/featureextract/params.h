@@ -50,6 +50,7 @@ struct Params {
   int ransac_max_iterations = 4000;  ///< upper bound of iterations per instance search
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
   bool pose_hypotheses = true;       ///< also try one placement per pair (rotation from local frames, scale from SHOT) against RANSAC's
+  bool topology_hypotheses = true;   ///< also try affine maps from matching how the reference's faces meet (issue 9: machined features)
   int refine_iterations = 30;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
   double error_quantile = 0.9;        ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
@@ -67,6 +68,9 @@ struct Params {
   double max_anisotropy = 3.0;       ///< largest / smallest singular value (oblique distortion)
   double max_perspective = 0.25;     ///< largest |w - 1| over the reference feature's box
   bool allow_reflection = false;     ///< accept transforms with negative determinant (mirror images)
+  double topology_axis_scale_min = 0.25;  ///< axis_scale_min for hypotheses from a topology match (every face matched)
+  double topology_axis_scale_max = 4.0;   ///< axis_scale_max for them
+  double topology_max_anisotropy = 8.0;   ///< max_anisotropy for them
 
   // --- references as users make them (issue 9)
   bool mirror = true;            ///< also search the reference's mirror image (unless it is its own); matches say "mirrored"
