@@ -60,8 +60,9 @@ struct RegionGraph {
 };
 
 /// The regions of a mesh (see above). `crease_degrees`: adjacent triangles whose normals differ by
-/// more are in different regions (unless they are of one B-rep face).
-RegionGraph region_graph(const TriangleMesh& mesh, double crease_degrees = 20.0);
+/// more are in different regions (unless they are of one B-rep face). The two walls of an MFCAD
+/// "2 sides" step meet at 18 degrees; tangent faces (fillets) meet at 0.
+RegionGraph region_graph(const TriangleMesh& mesh, double crease_degrees = 10.0);
 
 /// Marks as cut the regions with an open border edge lying (within `tolerance`) in a plane of the
 /// box lo..hi on a side that was cut (-x, +x, -y, +y, -z, +z), and those edges' vertices.

@@ -188,6 +188,16 @@ TopologyMatch topology_hypotheses(const RegionGraph& ref, const RegionGraph& tgt
     placed[static_cast<std::size_t>(pick)] = 1;
   }
   out.matched = order;
+  if (std::getenv("FE_DEBUG_TOPOLOGY")) {
+    for (int r = 0; r < nr; ++r) {
+      const auto& g = ref.regions[static_cast<std::size_t>(r)];
+      std::fprintf(stderr, "topology: reference region %d%s: %s, area %.3g, centroid (%.2f %.2f %.2f)%s%s%s, contacts", r, in_m[static_cast<std::size_t>(r)] ? " (matched)" : "",
+                   g.planar ? "planar" : "curved", g.area, g.centroid.x(), g.centroid.y(), g.centroid.z(), g.open ? ", open" : "", g.cut ? ", cut" : "",
+                   whole[static_cast<std::size_t>(r)] ? ", whole" : "");
+      for (const auto& c : ref.contacts[static_cast<std::size_t>(r)]) std::fprintf(stderr, " %d (%.0f deg)", c.other, c.angle * 180 / M_PI);
+      std::fprintf(stderr, "\n");
+    }
+  }
   std::vector<int> pos_ref(static_cast<std::size_t>(nr), kOut);
   for (int k = 0; k < n; ++k) pos_ref[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] = k;
   const std::vector<Corner> ref_corners = corners(ref, order, [&](int r) { return pos_ref[static_cast<std::size_t>(r)]; }, !use_cut);
