@@ -6,8 +6,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <unordered_map>
 
 namespace fe {
@@ -73,9 +71,6 @@ double Clearance::obstructed(const Eigen::Matrix4d& H, const Distance& target_di
       const Eigen::Vector3d y = apply_transform(H, r.origin + t * r.direction);
       if (!y.allFinite()) break;
       if (target_distance(y) < target_hit) {
-        if (std::getenv("FE_DEBUG_RAYS"))
-          std::fprintf(stderr, "  ray from (%.2f %.2f %.2f) dir (%.2f %.2f %.2f) free %.2f blocked at t %.2f -> (%.2f %.2f %.2f)\n", r.origin.x(), r.origin.y(),
-                       r.origin.z(), r.direction.x(), r.direction.y(), r.direction.z(), free, t, y.x(), y.y(), y.z());
         ++blocked;
         break;
       }

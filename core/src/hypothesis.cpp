@@ -247,22 +247,6 @@ double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
 Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all) const {
   Evidence ev;
   ev.error = quantile_error(H);
-  if (std::getenv("FE_DEBUG_ERR")) {
-    const Eigen::Index nk = static_cast<Eigen::Index>(stride_subset(core_keys_, 300).size());
-    int kfar = 0, knorm = 0, dfar = 0, dnorm = 0;
-    for (Eigen::Index i = 0; i < eval_pts_.rows(); ++i) {
-      const Eigen::Vector3d x = eval_pts_.row(i);
-      int j;
-      const double e = surface_distance(T_, apply_transform(H, x), &j) / s;
-      const bool far = !(e < normal_penalty_);
-      const bool bad = !far && j >= 0 && (transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized().dot(T_.dense_normals.row(j)) < 0.5;
-      if (i < nk) { kfar += far; knorm += bad; } else { dfar += far; dnorm += bad; }
-      if ((far || bad) && std::getenv("FE_DEBUG_ERR")[0] == '2')
-        std::fprintf(stderr, "  %s %.3f %.3f %.3f e %.4f %s\n", i < nk ? "key" : "dense", x.x(), x.y(), x.z(), e, far ? "far" : "normal");
-    }
-    std::fprintf(stderr, "debug: errors: keys %ld (far %d, normal %d), dense %ld (far %d, normal %d)\n", static_cast<long>(nk), kfar, knorm,
-                 static_cast<long>(eval_pts_.rows() - nk), dfar, dnorm);
-  }
   const double tol = p_.accept_error * L_ * s;
   ev.tolerance = tol;
   // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.

@@ -88,13 +88,21 @@ RegionGraph region_graph(const TriangleMesh& m, double crease_degrees) {
     ok[static_cast<std::size_t>(t)] = 1;
   }
 
-  // Edges -> the triangles using them.
-  std::unordered_map<std::uint64_t, std::vector<int>> edges;
-  edges.reserve(static_cast<std::size_t>(3 * T));
+  // Edges -> the triangles using them, in key order (so that nothing depends on a hash table's):
+  // (edge, triangle) rows sorted, then one entry per edge.
+  std::vector<std::pair<std::uint64_t, int>> uses;
+  uses.reserve(static_cast<std::size_t>(3 * T));
   for (Eigen::Index t = 0; t < T; ++t) {
     if (!ok[static_cast<std::size_t>(t)]) continue;
-    for (int k = 0; k < 3; ++k) edges[edge_key(W(t, k), W(t, (k + 1) % 3))].push_back(static_cast<int>(t));
+    for (int k = 0; k < 3; ++k) uses.emplace_back(edge_key(W(t, k), W(t, (k + 1) % 3)), static_cast<int>(t));
   }
+  std::sort(uses.begin(), uses.end());
+  std::vector<std::pair<std::uint64_t, std::vector<int>>> sorted_edges;
+  for (std::size_t i = 0; i < uses.size(); ++i) {
+    if (i == 0 || uses[i].first != uses[i - 1].first) sorted_edges.emplace_back(uses[i].first, std::vector<int>{});
+    sorted_edges.back().second.push_back(uses[i].second);
+  }
+  uses = {};
   // The third vertex of triangle t, off edge (a, b).
   auto apex = [&](int t, int a, int b) {
     for (int k = 0; k < 3; ++k) {
@@ -115,10 +123,6 @@ RegionGraph region_graph(const TriangleMesh& m, double crease_degrees) {
   std::vector<int> parent(static_cast<std::size_t>(T));
   std::iota(parent.begin(), parent.end(), 0);
   const double crease_cos = std::cos(crease_degrees * M_PI / 180.0);
-  // (in key order: the numbering of border vertices must not depend on the hash table's)
-  std::vector<std::pair<std::uint64_t, std::vector<int>>> sorted_edges(edges.begin(), edges.end());
-  std::sort(sorted_edges.begin(), sorted_edges.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  edges.clear();
   for (const auto& e : sorted_edges) {
     if (e.second.size() != 2) continue;
     const int s = e.second[0], t = e.second[1];
