@@ -102,6 +102,26 @@ class App_(unittest.TestCase):
         for r in self.doc.getObject(api.RESULT_GROUP).Group:
             self.assertRegex(r.Label, r"^Similar [1-5] \(\d\.\d\d\)$")
 
+    def test_document_objects_and_old_view_provider_names(self):
+        """Issue 11, layout by role: the document objects stay in objects.py (Document.xml names each
+        proxy by module and class: their saved path is unchanged); the view providers live in
+        view_providers.py, and objects still answers the names older documents saved in
+        GuiDocument.xml (freecad.feature_extract.objects.ViewProviderResult, ...), FreeCAD taking
+        the class from the module by name."""
+        import zipfile
+        from freecad.feature_extract import objects, view_providers
+        for name in ("ViewProviderReference", "ViewProviderResult", "ViewProviderFeatureMesh"):
+            self.assertIs(getattr(objects, name), getattr(view_providers, name))
+        with self.assertRaises(AttributeError):
+            objects.ViewProviderSomethingElse  # noqa: B018
+        ref = api.make_reference(self.part, rib_faces(self.part.Shape, 60.0))
+        self.assertEqual(ref.Proxy.Type, "FeatureExtract::ReferenceFeature")
+        path = os.path.join(tempfile.mkdtemp(), "reference.FCStd")
+        self.doc.saveAs(path)
+        with zipfile.ZipFile(path) as z:
+            xml = z.read("Document.xml").decode()
+        self.assertIn('module="freecad.feature_extract.objects" class="ReferenceFeature"', xml)
+
     def test_reference_file_and_saved_brep(self):
         results = api.extract(self.part, os.path.join(MODELS, "rib_reference.step"))
         self.assertEqual(len(results), 5)

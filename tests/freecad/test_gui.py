@@ -242,7 +242,7 @@ def main():
     meshes = [o for o in doc2.Objects if o.TypeId == "Fem::FemMeshObjectPython"]
     check(len(meshes) == 5, f"5 FEM mesh objects ({len(meshes)})")
     wait_for(lambda: False, 0.5)
-    from freecad.feature_extract.objects import color_by_quality
+    from freecad.feature_extract.view_providers import color_by_quality
     for m in meshes:  # (FemGui can set ElementColor but not read it back: the pixels below tell)
         check(len(m.ElementIds) == m.FemMesh.FaceCount and color_by_quality(m), f"{m.Label}: elements colored by quality")
     Gui.Selection.clearSelection()
@@ -289,6 +289,7 @@ def main():
             check(len(api.results_for(again.getObject("Part"))) == 5, "results intact after reopening")
         wait_for(lambda: False, 0.5)  # deferred recolors
         check(not Gui.getDocument(again.Name).Modified, f"reopened document with {what} is not marked modified")
+        reopen_as_saved_before_the_move(path, again, report, what)
 
     # issue 12: the whole part meshed with a feature's rules in the background, an analysis to solve
     doc3 = App.newDocument("gui_mesh_part")
@@ -309,6 +310,43 @@ def main():
     wait_for(lambda: False, 0.5)  # the report view shows the line on the next events
     if report is not None:
         check("meshed whole" in report.toPlainText(), "meshing the part says so in the report view")
+
+
+def reopen_as_saved_before_the_move(path, doc, report, what):
+    """Issue 11, layout by role: the view providers left objects.py for view_providers.py. FreeCAD
+    saves a proxy in GuiDocument.xml as module="<its class's module>" class="<its name>", so a
+    document saved before the move names freecad.feature_extract.objects.ViewProviderResult and so
+    on. The document just saved, with those names put back, is such a document: it must reopen with
+    no error and with the current view providers (objects answers the old names from view_providers)."""
+    import zipfile
+    import FreeCAD as App
+    import FreeCADGui as Gui
+    from PySide import QtGui
+    new_path, old_path = 'module="freecad.feature_extract.view_providers"', 'module="freecad.feature_extract.objects"'
+    legacy = os.path.join(os.path.dirname(path), "saved_before_the_move.FCStd")
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(legacy, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "GuiDocument.xml":
+                text = data.decode()
+                check(text.count(new_path) > 0, f"GuiDocument.xml names the view providers by {new_path} ({what})")
+                data = text.replace(new_path, old_path).encode()
+            dst.writestr(item, data)
+    App.closeDocument(doc.Name)
+    before = report.toPlainText()
+    old = App.openDocument(legacy)
+    for _ in range(20):
+        QtGui.QApplication.processEvents()
+    wait_for(lambda: False, 0.5)  # deferred recolors
+    new = report.toPlainText()[len(before):]
+    bad = [l for l in new.splitlines() if any(w in l for w in ("Error", "error", "Traceback", "has no", "failed", "serializable"))
+           and "no error" not in l]  # not this test's own lines
+    check(not bad, f"a document with {what} saved before the move reopens with no error in the report view {bad[:2]}")
+    ours = [o for o in old.Objects if str(getattr(getattr(o, "Proxy", None), "Type", "")).startswith("FeatureExtract::")]
+    moved = [type(o.ViewObject.Proxy).__module__ for o in ours]
+    check(ours and all(m == "freecad.feature_extract.view_providers" for m in moved),
+          f"its {len(ours)} objects have their view providers back, from view_providers ({sorted(set(moved))})")
+    check(not Gui.getDocument(old.Name).Modified, f"the document saved before the move with {what} is not marked modified")
 
 
 finish("gui", main)

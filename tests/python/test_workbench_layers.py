@@ -9,8 +9,10 @@ PACKAGE = os.path.join(os.path.dirname(__file__), "..", "..", "FeatureExtractWB"
 # lowest first; a module may import from the layers before its own
 LAYERS = [
     ["__init__"],                    # icons, translate, where the resources are
-    ["model"],                       # what a document holds, no GUI, no core
-    ["objects", "overlay"],          # document objects and their view providers; the samples overlay
+    ["model"],                       # what a document holds, no GUI, no core; the proxies' base
+    ["view_providers"],              # how the objects look: view providers, face and element colors
+    ["objects", "overlay"],          # App-side document objects (they answer older documents' view
+                                     # provider names from view_providers); the samples overlay
     ["api"],                         # the headless API (freecadcmd, macros)
     ["library"],                     # the feature library on top of the API
     ["background"],                  # the one background-job helper
@@ -62,3 +64,27 @@ def test_the_check_sees_function_level_imports():
     # the commands import the task panels inside Activated(); that must count
     assert "taskpanel" in imported("commands") and "library_panel" in imported("commands")
     assert "model" in imported("api")
+    # objects' lazy __getattr__ for older documents imports view_providers: it counts too
+    assert "view_providers" in imported("objects")
+
+
+def test_objects_are_app_only():
+    # document objects work in freecadcmd: no GUI module anywhere in their text (issue 11, layout by role)
+    for name in ("model", "objects"):
+        tree = ast.parse(open(os.path.join(PACKAGE, name + ".py")).read())
+        used = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        used |= {(n.module or "").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+        assert not used & {"FreeCADGui", "PySide", "PySide2", "pivy"}, f"{name}.py imports {used}"
+        assert not [n.name for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name.startswith("ViewProvider")]
+
+
+def test_old_view_provider_paths_are_answered():
+    # documents saved before the move name freecad.feature_extract.objects.ViewProvider*: objects
+    # must answer every one of them with a class that view_providers defines
+    tree = ast.parse(open(os.path.join(PACKAGE, "objects.py")).read())
+    moved = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+                 and any(getattr(t, "id", None) == "_MOVED_TO_VIEW_PROVIDERS" for t in n.targets))
+    assert any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body)
+    vp = ast.parse(open(os.path.join(PACKAGE, "view_providers.py")).read())
+    defined = {n.name for n in vp.body if isinstance(n, ast.ClassDef)}
+    assert set(moved) == {"ViewProviderReference", "ViewProviderResult", "ViewProviderFeatureMesh"} <= defined

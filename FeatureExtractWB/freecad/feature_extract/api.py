@@ -110,7 +110,7 @@ def make_reference(source, faces, label="Reference"):
         obj.Source = source
         obj.Faces = faces
         if App.GuiUp:
-            from .objects import ViewProviderReference
+            from .view_providers import ViewProviderReference
             ViewProviderReference(obj.ViewObject)
         doc.recompute()
     return obj
@@ -282,7 +282,7 @@ def add_match_objects(target_obj, ref_obj, ref_text, matches, created, color=Non
         obj.Mirrored = bool(_field(m, "mirrored"))
         obj.Color = color if color is not None else PALETTE[i % len(PALETTE)]
         if App.GuiUp:
-            from .objects import ViewProviderResult
+            from .view_providers import ViewProviderResult
             ViewProviderResult(obj.ViewObject)
         out.append(obj)
     return out
@@ -316,7 +316,7 @@ def add_results(target_obj, reference, result):
             obj.Label = f"Similar {i + 1} ({m.score:.2f})"
         doc.recompute()
     if App.GuiUp:
-        from .objects import recolor
+        from .view_providers import recolor
         recolor(target_obj)
     return new
 
@@ -391,7 +391,7 @@ def place_meshes(target_obj, feature_dir, progress=None, **params):
             obj.UnprojectedNodes = int(t.unprojected)
             obj.NodeSets = sorted(t.mesh.node_sets)
             if App.GuiUp:
-                from .objects import ViewProviderFeatureMesh
+                from .view_providers import ViewProviderFeatureMesh
                 ViewProviderFeatureMesh(obj.ViewObject)
             group.addObject(obj)
             meshes.append(obj)

@@ -280,7 +280,7 @@ class ClearColors:
 
     def Activated(self):
         from .model import RESULT_GROUP, results_for
-        from .objects import clear_colors
+        from .view_providers import clear_colors
         group = App.ActiveDocument.getObject(RESULT_GROUP)
         targets = {r.Target.Name: r.Target for r in (group.Group if group else [])
                    if getattr(r, "Target", None) is not None}

@@ -179,7 +179,7 @@ def add_results(target_obj, result):
                 obj.Label = f"{f['name']} {i + 1} ({m['score']:.2f})"
         doc.recompute()
     if App.GuiUp:
-        from .objects import recolor
+        from .view_providers import recolor
         recolor(target_obj)
     return [g for g, _ in new_groups]
 

@@ -1,6 +1,7 @@
 """What the workbench keeps in a document and how to read it, with no GUI and no C++ core: the
-results group, the one type test of its objects, a reference's faces as a shape, the results and
-meshes on a part, and the quality colors. The lowest layer of the package: objects, the headless
+results group, the one type test of its objects, the proxy base that saves nothing (document objects
+and view providers both derive from it), a reference's faces as a shape, the results and meshes on a
+part, and the quality colors. The lowest layer of the package: view_providers, objects, the headless
 api and the GUI all import it, and it imports none of them."""
 
 RESULT_GROUP = "FeatureExtractResults"
@@ -8,6 +9,29 @@ RESULT_GROUP = "FeatureExtractResults"
 
 class FeatureExtractError(ValueError):
     """A problem the user can fix (bad selection, no solid, unreadable shape): one clear sentence."""
+
+
+class Stateless:
+    """The base of every proxy, document objects' and view providers' alike: they keep everything in
+    properties, nothing of their own to save or restore.
+
+    FreeCAD 0.20 saves a proxy through __getstate__ (0.21 through dumps). On Python 3.11 every
+    object has a __getstate__ that returns its __dict__, and a view provider keeps its Object there:
+    "Object of type FeaturePython is not JSON serializable" at every save (issue 11). Both spellings
+    say: nothing. Restoring needs nothing either (assigning obj.Proxy while the document is being
+    restored is what raised "setAttr failed" on every reopen)."""
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+    def __getstate__(self):
+        return None
+
+    def __setstate__(self, state):
+        return None
 
 
 def is_of_type(obj, name):

@@ -1,34 +1,28 @@
-"""Document objects of the workbench. Results live in App properties (saved in the .FCStd, available
-headless); colors are applied by the view providers, never stored in the model."""
-import FreeCAD as App
+"""The workbench's document objects, App side only (they work in freecadcmd, no FreeCADGui here):
+ReferenceFeature (faces of a source solid), ExtractionResult (one found instance), FeatureMesh (an FE
+mesh placed on one). Results live in App properties (saved in the .FCStd, available headless); each
+proxy's `Type` names its kind for model.is_of_type. How they look (view providers, face and element
+colors, selecting a result's faces) is in view_providers.
 
-from . import icon
-from .model import quality_color, reference_shape, results_for
+Documents saved before the view providers moved out of this module (issue 11, layout by role) name
+them as freecad.feature_extract.objects.ViewProvider*: FreeCAD 0.20 restores a proxy by importing
+the module its GuiDocument.xml names and taking the class from it by name. `__getattr__` below
+(PEP 562) answers those names from view_providers when asked, so those documents open as before,
+and importing this module imports nothing of the GUI."""
+from .model import Stateless, reference_shape
 
-
-class _Stateless:
-    """Proxies keep everything in properties: nothing of their own to save or restore.
-
-    FreeCAD 0.20 saves a proxy through __getstate__ (0.21 through dumps). On Python 3.11 every
-    object has a __getstate__ that returns its __dict__, and a view provider keeps its Object there:
-    "Object of type FeaturePython is not JSON serializable" at every save (issue 11). Both spellings
-    say: nothing. Restoring needs nothing either (assigning obj.Proxy while the document is being
-    restored is what raised "setAttr failed" on every reopen)."""
-
-    def dumps(self):
-        return None
-
-    def loads(self, state):
-        return None
-
-    def __getstate__(self):
-        return None
-
-    def __setstate__(self, state):
-        return None
+# the names earlier versions saved in GuiDocument.xml, resolved lazily (FreeCAD asks only with a GUI)
+_MOVED_TO_VIEW_PROVIDERS = ("ViewProviderReference", "ViewProviderResult", "ViewProviderFeatureMesh")
 
 
-class ReferenceFeature(_Stateless):
+def __getattr__(name):
+    if name in _MOVED_TO_VIEW_PROVIDERS:
+        from . import view_providers
+        return getattr(view_providers, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+class ReferenceFeature(Stateless):
     """A reference feature: a list of faces (FaceN) of a source solid. Its Shape is their compound."""
 
     Type = "FeatureExtract::ReferenceFeature"
@@ -43,7 +37,7 @@ class ReferenceFeature(_Stateless):
             obj.Shape = reference_shape(obj)
 
 
-class ExtractionResult(_Stateless):
+class ExtractionResult(Stateless):
     """One found instance of a reference on a target (issue 2's result fields)."""
 
     Type = "FeatureExtract::ExtractionResult"
@@ -69,7 +63,7 @@ class ExtractionResult(_Stateless):
         pass
 
 
-class FeatureMesh(_Stateless):
+class FeatureMesh(Stateless):
     """A reference feature's FE mesh placed on one found instance (Fem::FemMeshObjectPython: the mesh is
     saved in the .FCStd; the element quality too, so its colors come back on reopening)."""
 
@@ -92,155 +86,3 @@ class FeatureMesh(_Stateless):
 
     def execute(self, obj):
         pass
-
-
-class ViewProviderFeatureMesh(_Stateless):
-    """Colors the elements by quality (green good, yellow fair, orange poor, red inverted)."""
-
-    def __init__(self, vobj):
-        vobj.Proxy = self
-        try:
-            vobj.DisplayMode = "Faces & Wireframe"  # node dots would hide the quality colors
-        except Exception:  # noqa: BLE001
-            pass
-
-    def attach(self, vobj):
-        self.Object = vobj.Object
-        from PySide import QtCore
-        QtCore.QTimer.singleShot(0, lambda: color_by_quality(vobj.Object))
-
-    def getIcon(self):
-        return icon("PlaceMesh")
-
-    def updateData(self, obj, prop):
-        if prop in ("ScaledJacobian", "FemMesh"):
-            color_by_quality(obj)
-
-
-def color_by_quality(obj):
-    """Element colors from the stored quality (deferred callers: the view provider must exist)."""
-    vo = getattr(obj, "ViewObject", None)
-    if vo is None or not obj.ElementIds or len(obj.ElementIds) != len(obj.ScaledJacobian):
-        return False
-    try:
-        vo.ElementColor = {int(e): quality_color(q) for e, q in zip(obj.ElementIds, obj.ScaledJacobian)}
-    except Exception:  # noqa: BLE001  (an older FemGui without ElementColor: plain mesh color)
-        return False
-    return True
-
-
-def _same_colors(have, want):
-    """Colors equal to 8 bits a channel (as the document stores them), lists or {id: color} dicts."""
-    if isinstance(want, dict):
-        if not isinstance(have, dict) or set(have) != set(want):
-            return False
-        have, want = [have[k] for k in sorted(have)], [want[k] for k in sorted(want)]
-    have, want = list(have), list(want)
-    return len(have) == len(want) and all(abs(a - b) <= 1.5 / 255 for x, y in zip(have, want) for a, b in zip(x[:3], y[:3]))
-
-
-def face_names(result_obj):
-    return [f"Face{f}" for f in result_obj.Faces]
-
-
-def recolor(target_obj):
-    """Colors the target's faces: every result on it in its own color, the rest in the shape color.
-    Where results claim the same face, the best scored shows (ties: the first by reference name, as
-    a library search ranks its overlaps). Deferred to the event loop: a DiffuseColor set inside a
-    recompute is overwritten afterwards."""
-    if not App.GuiUp or target_obj is None:
-        return
-    from PySide import QtCore
-
-    def apply():
-        vo = getattr(target_obj, "ViewObject", None)
-        if vo is None:
-            return
-        n = len(target_obj.Shape.Faces)
-        base = tuple(vo.ShapeColor[:3]) + (0.0,)
-        colors = [base] * n
-        ranked = sorted(results_for(target_obj), key=lambda r: (-round(r.Score, 6), r.ReferenceText, r.Label))
-        for r in reversed(ranked):  # the best last, so that it shows
-            if getattr(r, "ViewObject", None) is not None and not r.ViewObject.Visibility:
-                continue
-            for f in r.Faces:
-                if 1 <= f <= n:
-                    colors[f - 1] = tuple(r.Color[:3]) + (0.0,)
-        if not _same_colors(vo.DiffuseColor, colors):  # setting the same colors would mark the document modified
-            vo.DiffuseColor = colors
-
-    QtCore.QTimer.singleShot(0, apply)
-
-
-def clear_colors(target_obj):
-    vo = getattr(target_obj, "ViewObject", None)
-    if vo is not None:
-        vo.DiffuseColor = [tuple(vo.ShapeColor[:3]) + (0.0,)] * len(target_obj.Shape.Faces)
-
-
-class ViewProviderReference(_Stateless):
-    def __init__(self, vobj):
-        vobj.Proxy = self
-        vobj.ShapeColor = (1.0, 0.85, 0.0)
-        vobj.Transparency = 40
-        # it lies exactly on the source's faces: hidden by default so that it does not mask the
-        # result colors there (space bar shows it)
-        vobj.Visibility = False
-
-    def attach(self, vobj):
-        self.Object = vobj.Object
-
-    def getIcon(self):
-        return icon("PickReference")
-
-
-class ViewProviderResult(_Stateless):
-    """Shows a result as colored faces on its target; hiding it removes its color."""
-
-    def __init__(self, vobj):
-        vobj.Proxy = self
-
-    def attach(self, vobj):
-        self.Object = vobj.Object
-        # the "Default" display mode must exist as a node: without one FreeCAD takes the object for
-        # hidden and greys it in the tree, though its Visibility is True (its look is the target's
-        # face colors, so the node is empty)
-        from pivy import coin
-        vobj.addDisplayMode(coin.SoGroup(), "Default")
-
-    def getIcon(self):
-        return icon("Extract")
-
-    def getDisplayModes(self, vobj):
-        return ["Default"]
-
-    def getDefaultDisplayMode(self):
-        return "Default"
-
-    def updateData(self, obj, prop):
-        if prop in ("Faces", "Color", "Target"):
-            recolor(obj.Target)
-
-    def onChanged(self, vobj, prop):
-        if prop == "Visibility":
-            recolor(vobj.Object.Target)
-
-    def onDelete(self, vobj, subelements):
-        target = vobj.Object.Target
-        from PySide import QtCore
-        QtCore.QTimer.singleShot(0, lambda: recolor(target) if target and target.Document else None)
-        return True
-
-    def doubleClicked(self, vobj):
-        select_faces(vobj.Object)
-        return True
-
-
-def select_faces(result_obj):
-    """Selects the result's faces on its target in the 3D view."""
-    import FreeCADGui as Gui
-    target = result_obj.Target
-    if target is None:
-        return
-    Gui.Selection.clearSelection()
-    Gui.Selection.addSelection(target, face_names(result_obj))
