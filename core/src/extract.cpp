@@ -348,6 +348,11 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       // One group: the fits onto one set of target regions; the one the surface agrees with best.
       const int g = tm.hypotheses[i].group;
       report(progress, "topology", static_cast<double>(g) / static_cast<double>(groups));
+      if (!tm.hypotheses[i].border_agrees) {
+        if (debug) std::fprintf(stderr, "debug: topology %s: what lies beyond its faces differs from the best match's\n", topology_name(tm.hypotheses[i]).c_str());
+        while (i < tm.hypotheses.size() && tm.hypotheses[i].group == g) ++i;
+        continue;
+      }
       // Of fits the surface agrees with about equally (a turned rectangle on a rectangle), the first:
       // proper and least stretched.
       std::vector<std::pair<double, double>> costs;  // (cost, scale) per fit of the group, inf out of bounds

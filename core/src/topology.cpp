@@ -32,6 +32,7 @@ bool fit_affine(const Points& a, const Points& b, Eigen::Matrix4d* H, double* rm
 namespace {
 
 constexpr int kOut = -1;                          // label of what lies outside the match
+constexpr double kSharp = 30.0 * M_PI / 180.0;    // contacts at least this sharp tell convex from concave beyond a match
 constexpr std::size_t kMaxTies = 32;              // equally good fits kept per set of target regions
 constexpr double kTangent = 15.0 * M_PI / 180.0;  // contacts this flat have no reliable sense
 
@@ -388,17 +389,45 @@ TopologyMatch topology_hypotheses(const RegionGraph& ref, const RegionGraph& tgt
   for (auto& e : by_image)
     if (!e.second.fits.empty()) slots.push_back(&e.second);
   std::stable_sort(slots.begin(), slots.end(), [](const Slot* x, const Slot* y) { return x->rms < y->rms; });
-  int group = 0;
-  for (Slot* sl : slots) {
-    if (out.hypotheses.size() >= o.max_hypotheses) break;
+  for (Slot* sl : slots)
     std::stable_sort(sl->fits.begin(), sl->fits.end(), [](const Fit& x, const Fit& y) {
       return std::make_tuple(x.det <= 0, x.anisotropy, x.rms) < std::make_tuple(y.det <= 0, y.anisotropy, y.rms);
     });
+  // What lies beyond the matched regions (border_agrees): per matched region, the senses of the
+  // sharp contacts its image has with target regions outside the image.
+  auto beyond = [&](const std::vector<int>& image) {
+    std::vector<int> sig(image.size(), 0);
+    for (std::size_t k = 0; k < image.size(); ++k)
+      for (const auto& c : tgt.contacts[static_cast<std::size_t>(image[k])]) {
+        if (std::find(image.begin(), image.end(), c.other) != image.end() || std::abs(c.angle) < kSharp) continue;
+        sig[k] |= c.angle > 0 ? 1 : 2;
+      }
+    return sig;
+  };
+  // The best group: of the lowest residual, the least stretched (the reference's own instance when
+  // the target holds it).
+  const Slot* top = nullptr;
+  for (const Slot* sl : slots)
+    if (!top || sl->rms < top->rms - top->tol ||
+        (sl->rms <= top->rms + top->tol && sl->fits[0].anisotropy < top->fits[0].anisotropy - 1e-9))
+      top = sl;
+  const std::vector<int> norm = top ? beyond(top->fits[0].image) : std::vector<int>{};
+  int group = 0;
+  for (Slot* sl : slots) {
+    if (out.hypotheses.size() >= o.max_hypotheses) break;
+    bool agrees = false;  // some fit of the group sees no sense beyond a region that the best does not
+    for (const Fit& x : sl->fits) {
+      const std::vector<int> sig = beyond(x.image);
+      bool ok = true;
+      for (std::size_t k = 0; k < sig.size(); ++k) ok = ok && (sig[k] & ~norm[k]) == 0;
+      agrees = agrees || ok;
+    }
     for (Fit& x : sl->fits) {
       TopologyHypothesis h;
       h.H = x.H;
       h.residual = x.rms;
       h.group = group;
+      h.border_agrees = agrees;
       h.ref_points = std::move(x.a);
       h.tgt_points = std::move(x.b);
       h.image = std::move(x.image);

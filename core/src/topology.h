@@ -28,6 +28,11 @@ struct TopologyHypothesis {
   Eigen::Matrix4d H = Eigen::Matrix4d::Identity();  ///< affine, reference -> target
   double residual = 0;        ///< RMS distance of the fitted correspondences, target units
   int group = 0;              ///< hypotheses of one group map onto the same target regions (equally good fits)
+  /// What lies beyond the group's regions agrees with the best group: no matched region's image meets
+  /// a region outside the image along a sharp edge of a sense (convex, concave) that the best group's
+  /// image of it does not. Where a picked through slot's floor ends, the part turns down (convex); a
+  /// blind slot's floor ends at a wall (concave): not the same feature, though its faces match.
+  bool border_agrees = true;
   std::vector<int> image;     ///< target region of each matched reference region (TopologyMatch::matched)
   Points ref_points, tgt_points;  ///< the correspondences it was fitted to
 };

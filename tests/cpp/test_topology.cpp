@@ -198,6 +198,35 @@ TEST(Topology, WhereAnStlRegionWasClippedIsNotMatched) {
   EXPECT_EQ(groups.size(), 3u);
 }
 
+TEST(Topology, ABlindSlotIsNotAThroughSlotThoughItsFacesMatch) {
+  // 5-5-5-5-12-23: four through slots and a blind slot. A through slot's three faces (floor, two
+  // walls) match the blind slot's floor and side walls too; but where the through slot's floor and
+  // walls end the part turns down (convex edges), and the blind slot's end at its end wall (concave).
+  const fe::TriangleMesh m = fe::read_shape(mfcad("5-5-5-5-12-23.step"));
+  const auto slots = instances("5-5-5-5-12-23", "rectangular_through_slot");
+  const auto blind = instances("5-5-5-5-12-23", "rectangular_blind_slot");
+  ASSERT_EQ(slots.size(), 4u);
+  ASSERT_EQ(blind.size(), 1u);
+  const fe::RegionGraph tg = fe::region_graph(m);
+  const fe::TopologyMatch tm = fe::topology_hypotheses(fe::region_graph(picked(m, slots[0])), tg);
+  const std::vector<int> face = region_faces(tg, m);
+  int agree_slots = 0, agree_blind = 0, blind_groups = 0;
+  std::set<int> seen;
+  for (const auto& h : tm.hypotheses) {
+    if (!seen.insert(h.group).second) continue;
+    std::set<int> faces;
+    for (int r : h.image) faces.insert(face[static_cast<std::size_t>(r)]);
+    const bool on_blind = std::includes(blind[0].begin(), blind[0].end(), faces.begin(), faces.end());
+    const bool on_slot = std::find(slots.begin(), slots.end(), faces) != slots.end();
+    if (on_blind) ++blind_groups;
+    if (h.border_agrees) (on_blind ? agree_blind : agree_slots) += 1;
+    EXPECT_TRUE(on_blind || on_slot);
+  }
+  EXPECT_EQ(agree_slots, 4);
+  EXPECT_GE(blind_groups, 1);  // the faces do match...
+  EXPECT_EQ(agree_blind, 0);   // ...but not what lies beyond them
+}
+
 TEST(EndToEnd, MachinedPassagesOfOtherProportionsAreAllFound) {
   // issue 9: picked faces found 2 of these 3 passages and an STL region 1, before the topology
   // hypotheses (RANSAC settled at 1.27x across the widest one, which is 1.445x).
