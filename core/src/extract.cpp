@@ -143,11 +143,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
 
   // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds; each hypothesis
   // refined on the surface and judged on the feature's core.
-  // The reference's regions, with the context where a box cut it (topology.h). When the regions that
-  // do not reach a cut side hold most of the core, the core is those regions': the walls of a
-  // passage without the pieces of its neighbour that the box took along.
+  // The reference's regions, with the context where a box cut it (topology.h).
   RegionGraph rg = R.regions;
-  FeatureCore judged = core;
   if (core.set && rg.size() > 0) {
     std::array<bool, 6> sides{};
     for (int a = 0; a < 3; ++a) {
@@ -155,19 +152,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       sides[static_cast<std::size_t>(2 * a + 1)] = core.hi(a) < R.box_max(a);
     }
     mark_cut(rg, R.box_min, R.box_max, sides, 2e-3 * L);
-    auto mask = std::make_shared<std::vector<char>>(R.dense.size(), 0);
-    std::size_t in_box = 0, kept = 0;
-    for (std::size_t i = 0; i < R.dense.size(); ++i) {
-      if (!core.contains(R.dense.points.row(static_cast<Eigen::Index>(i)).transpose())) continue;
-      ++in_box;
-      const int r = region_of_sample(rg, R, i);
-      if (r < 0 || rg.regions[static_cast<std::size_t>(r)].cut) continue;
-      (*mask)[i] = 1;
-      ++kept;
-    }
-    if (kept > 0 && 2 * kept >= in_box) judged.dense_feature = mask;
   }
-  const HypothesisScorer scorer(R, T, p, judged);
+  const HypothesisScorer scorer(R, T, p, core);
   const SurfaceRefinement refinement(R, T, p, scorer);
   if (refinement.symmetry().axisymmetric) {
     res.symmetry = "axisymmetric";
@@ -341,7 +327,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     // matched, and stretched crease key points fall between the target's (a hexagonal pocket at
     // 0.3x: 0.38 of them agree, the pocket itself 0.50).
     pt.min_key_agreement = 0;
-    const HypothesisScorer scorer(R, T, pt, everything ? judged : topology_core);
+    const HypothesisScorer scorer(R, T, pt, everything ? core : topology_core);
     const SurfaceRefinement refinement(R, T, pt, scorer);
     const int groups = tm.hypotheses.empty() ? 0 : tm.hypotheses.back().group + 1;
     for (std::size_t i = 0; i < tm.hypotheses.size();) {

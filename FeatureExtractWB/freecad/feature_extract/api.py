@@ -165,8 +165,8 @@ def prepare(target_obj, reference, **params):
 # Share of an extraction's time per stage of the core (NIST CTC-02 with a lug: target SHOT 4.2 s and
 # RANSAC 7.7 s of 15 s), in the order the core reports them.
 _STAGE_SHARE = [("tessellating", 0.04), ("reference", 0.03), ("target: sampling", 0.06), ("target: normals", 0.06),
-                ("target: shape index", 0.04), ("target: SHOT", 0.26), ("pairs", 0.05), ("clusters", 0.01),
-                ("ransac", 0.43), ("result", 0.02)]
+                ("target: shape index", 0.04), ("target: SHOT", 0.25), ("target: regions", 0.01), ("pairs", 0.05),
+                ("clusters", 0.01), ("ransac", 0.42), ("topology", 0.02), ("result", 0.01)]
 
 
 class OverallProgress:
