@@ -5,27 +5,29 @@
 
 namespace fe {
 
-bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, const ShapeDescription::Impl& T,
+bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, double merge_reach, const ShapeDescription::Impl& T,
                   const TriangleMesh& tmesh, double face_coverage, Instance& inst) {
   Match& mt = inst.match;
   const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(reach);
   const Eigen::Vector3d hi = mapped.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(reach);
+  std::vector<int> near;  // within reach: the instance's center, box and faces
   for (Eigen::Index j = 0; j < T.dense.points.rows(); ++j) {
     const Eigen::Vector3d q = T.dense.points.row(j);
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
     double d2;
     mapped_tree.nearest(q, &d2);
-    if (std::sqrt(d2) <= reach) inst.covered.push_back(static_cast<int>(j));
+    if (std::sqrt(d2) <= reach) near.push_back(static_cast<int>(j));
+    if (std::sqrt(d2) <= merge_reach) inst.covered.push_back(static_cast<int>(j));
   }
-  if (inst.covered.empty()) return false;
+  if (near.empty()) return false;
   Eigen::Vector3d c = Eigen::Vector3d::Zero(), bmin = Eigen::Vector3d::Constant(INFINITY), bmax = -bmin;
-  for (int j : inst.covered) {
+  for (int j : near) {
     const Eigen::Vector3d q = T.dense.points.row(j);
     c += q;
     bmin = bmin.cwiseMin(q);
     bmax = bmax.cwiseMax(q);
   }
-  mt.center = c / static_cast<double>(inst.covered.size());
+  mt.center = c / static_cast<double>(near.size());
   mt.bbox_min = bmin;
   mt.bbox_max = bmax;
   // Faces and triangles: covered area per face (triangle centroids near the mapped reference).

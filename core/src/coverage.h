@@ -18,9 +18,11 @@ struct Instance {
 
 /// Fills inst.covered, and inst.match's center, bbox, faces and (mesh input) triangles from the mapped
 /// reference samples `mapped` (kd-tree `mapped_tree`): a target sample or triangle centroid within
-/// `reach` of them is covered; a B-rep face is listed when covered over `face_coverage` of its area.
-/// False when nothing is covered.
-bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, const ShapeDescription::Impl& T,
+/// `reach` of them is the instance's (center, box; a B-rep face is listed when covered over
+/// `face_coverage` of its area); inst.covered, which tells overlapping instances apart, holds the
+/// samples within `merge_reach` (<= reach: an exact fit of a passage must not take the one 0.8 mm
+/// above it). False when nothing is within reach.
+bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, double merge_reach, const ShapeDescription::Impl& T,
                   const TriangleMesh& tmesh, double face_coverage, Instance& inst);
 
 }  // namespace fe

@@ -182,11 +182,13 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     mt.stretch_max = df.scale_max;
     mt.perspective = df.perspective;
     mt.obstructed = ev.obstructed;
-    // covered: the target within the fit's error of the mapped reference (twice its quantile error,
-    // at most the acceptance tolerance), and a sample spacing: an exact fit of a passage does not
-    // reach across the 0.8 mm of material to the passage above it
-    const double reach = std::min(ev.tolerance, 2 * ev.error * s + 0.5 * R.dense_h * s) + R.dense_h * s;
-    if (cover_target(ev.mapped, mtree, reach, T, tmesh, p.face_coverage, inst)) found.push_back(std::move(inst));
+    // The instance's faces: the target within the tolerance of the mapped reference. What tells it
+    // from another instance (merge.h): the target within the fit's error (twice its quantile error,
+    // at most the tolerance) and a sample spacing, so that an exact fit of a passage does not reach
+    // across the 0.8 mm of material to the passage above it.
+    const double reach = ev.tolerance + R.dense_h * s;
+    const double merge_reach = std::min(ev.tolerance, 2 * ev.error * s + 0.5 * R.dense_h * s) + R.dense_h * s;
+    if (cover_target(ev.mapped, mtree, reach, merge_reach, T, tmesh, p.face_coverage, inst)) found.push_back(std::move(inst));
   };
   std::uint64_t run = 0;
   for (std::size_t oi = 0; oi < order.size(); ++oi) {

@@ -215,7 +215,7 @@ TEST_F(SelfMatch, TheTrueTransformCoversEveryFace) {
   const fe::Evidence ev = scorer.evaluate(Eigen::Matrix4d::Identity(), 1.0);
   const fe::KdTree3 tree(ev.mapped);
   fe::Instance inst;
-  ASSERT_TRUE(fe::cover_target(ev.mapped, tree, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, inst));
+  ASSERT_TRUE(fe::cover_target(ev.mapped, tree, ev.tolerance + R().dense_h, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, inst));
   EXPECT_EQ(static_cast<int>(inst.match.faces.size()), mesh->num_faces);
   EXPECT_GT(inst.covered.size(), T().dense.size() * 9 / 10);
   EXPECT_TRUE(std::is_sorted(inst.covered.begin(), inst.covered.end()));
@@ -229,7 +229,7 @@ TEST_F(SelfMatch, TheTrueTransformCoversEveryFace) {
   far.col(0).array() += 10 * R().L;
   const fe::KdTree3 far_tree(far);
   fe::Instance none;
-  EXPECT_FALSE(fe::cover_target(far, far_tree, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, none));
+  EXPECT_FALSE(fe::cover_target(far, far_tree, ev.tolerance + R().dense_h, ev.tolerance + R().dense_h, T(), *mesh, params.face_coverage, none));
 }
 
 fe::Instance instance(int from, int to, double score, double x) {
