@@ -16,8 +16,9 @@ bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
     double d2;
     mapped_tree.nearest(q, &d2);
-    if (std::sqrt(d2) <= reach) near.push_back(static_cast<int>(j));
-    if (std::sqrt(d2) <= merge_reach) inst.covered.push_back(static_cast<int>(j));
+    const double d = std::sqrt(d2);
+    if (d <= reach) near.push_back(static_cast<int>(j));
+    if (d <= merge_reach) inst.covered.push_back(static_cast<int>(j));
   }
   if (near.empty()) return false;
   Eigen::Vector3d c = Eigen::Vector3d::Zero(), bmin = Eigen::Vector3d::Constant(INFINITY), bmax = -bmin;

@@ -143,16 +143,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
 
   // Step 6: RANSAC per cluster, repeated to take every instance a cluster holds; each hypothesis
   // refined on the surface and judged on the feature's core.
-  // The reference's regions, with the context where a box cut it (topology.h).
-  RegionGraph rg = R.regions;
-  if (core.set && rg.size() > 0) {
-    std::array<bool, 6> sides{};
-    for (int a = 0; a < 3; ++a) {
-      sides[static_cast<std::size_t>(2 * a)] = core.lo(a) > R.box_min(a);
-      sides[static_cast<std::size_t>(2 * a + 1)] = core.hi(a) < R.box_max(a);
-    }
-    mark_cut(rg, R.box_min, R.box_max, sides, 2e-3 * L);
-  }
   const HypothesisScorer scorer(R, T, p, core);
   const SurfaceRefinement refinement(R, T, p, scorer);
   if (refinement.symmetry().axisymmetric) {
@@ -302,6 +292,16 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   // proportions or plain faces the SHOT pairs miss (topology.h); judged like RANSAC's.
   if (p.topology_hypotheses && R.regions.size() >= 2 && T.regions.size() >= 2) {
     report(progress, "topology", 0);
+    // The reference's regions, with the context where a box cut it (topology.h).
+    RegionGraph rg = R.regions;
+    if (core.set) {
+      std::array<bool, 6> sides{};
+      for (int a = 0; a < 3; ++a) {
+        sides[static_cast<std::size_t>(2 * a)] = core.lo(a) > R.box_min(a);
+        sides[static_cast<std::size_t>(2 * a + 1)] = core.hi(a) < R.box_max(a);
+      }
+      mark_cut(rg, R.box_min, R.box_max, sides, 2e-3 * L);
+    }
     const TopologyMatch tm = topology_hypotheses(rg, T.regions);
     res.topology_matches = tm.matches;
     // Its hypotheses are judged on the faces matched (the feature), not on the context a box took
