@@ -7,6 +7,8 @@
 
 #ifdef _OPENMP
 #include <omp.h>
+#else
+static int omp_in_parallel() { return 0; }  // built without OpenMP (the sanitizer build): one thread
 #endif
 
 namespace fe {
