@@ -23,9 +23,10 @@ Samples sample_surface(const TriangleMesh& mesh, double spacing, std::uint64_t s
   std::vector<Cell> cells;
   auto key = [&](const Eigen::Vector3d& p, Eigen::Vector3d& center) {
     const Eigen::Vector3d g = (p - origin) * inv;
-    const std::uint64_t ix = static_cast<std::uint64_t>(std::floor(g.x())) & 0x1FFFFF;
-    const std::uint64_t iy = static_cast<std::uint64_t>(std::floor(g.y())) & 0x1FFFFF;
-    const std::uint64_t iz = static_cast<std::uint64_t>(std::floor(g.z())) & 0x1FFFFF;
+    // through a signed integer: a sample a rounding error below the origin is in cell -1, and a
+    // negative double cast straight to an unsigned type is undefined (UBSan, fuzz_extract)
+    const auto cell = [](double v) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v))) & 0x1FFFFF; };
+    const std::uint64_t ix = cell(g.x()), iy = cell(g.y()), iz = cell(g.z());
     center = origin + spacing * Eigen::Vector3d(std::floor(g.x()) + 0.5, std::floor(g.y()) + 0.5, std::floor(g.z()) + 0.5);
     return (ix << 42) | (iy << 21) | iz;
   };
