@@ -69,6 +69,27 @@ def main(out):
     s.exportIges(f"{out}/iges/block.iges")
     s.exportBrep(f"{out}/brep/block.brep")
     Part.Compound([s.Faces[0]]).exportBrep(f"{out}/brep/face.brep")
+    # extract: a plate with two ribs (one 1.3x), and one rib picked as faces; each is the seed of its
+    # role (fuzz_extract.cpp: an even first byte makes the input the target, an odd one the reference)
+    # and the fixed partner of the other role (extract_fixed/)
+    plate = Part.makeBox(60, 30, 3)
+    rib1 = Part.makeBox(20, 3, 6, App.Vector(8, 6, 3))
+    rib2 = Part.makeBox(26, 3.9, 7.8, App.Vector(30, 18, 3))
+    part = plate.fuse([rib1, rib2]).removeSplitter()
+    part = part.makeFillet(0.8, [e for e in part.Edges if e.BoundBox.ZMin > 8.9 and e.BoundBox.ZLength < 1e-6])
+    picked = [f for f in part.Faces if f.BoundBox.XMax < 29 and f.BoundBox.ZMin > 2.9 and f.BoundBox.ZLength + f.BoundBox.XLength > 1e-6
+              and not (f.BoundBox.ZLength < 1e-6 and f.BoundBox.ZMax < 3.1)]
+
+    def binary_stl(shape, header):
+        p, tris = shape.tessellate(0.05)
+        return header.ljust(80, b" ")[:80] + struct.pack("<I", len(tris)) + b"".join(
+            struct.pack("<12fH", 0, 0, 0, *[c for i in tri for c in (p[i].x, p[i].y, p[i].z)], 0) for tri in tris)
+    target = binary_stl(part, b"T plate with two ribs (even first byte: the input is the target)")
+    reference = binary_stl(Part.Compound(picked), b"S rib picked as faces (odd first byte: the input is the reference)")
+    write(f"{out}/extract/target.stl", target)
+    write(f"{out}/extract/reference.stl", reference)
+    write(f"{out}/extract_fixed/target.stl", target)
+    write(f"{out}/extract_fixed/reference.stl", reference)
     # FE meshes: tiny hand-made ones of every element type, and the shipped rib feature's
     write(f"{out}/inp/tiny.inp", "*NODE\n1, 0, 0, 0\n2, 1, 0, 0\n3, 1, 1, 0\n4, 0, 1, 0\n5, 0, 0, 1\n"
                                  "*ELEMENT, TYPE=S4, ELSET=A\n1, 1, 2, 3, 4\n*ELEMENT, TYPE=S3, ELSET=B\n2, 1, 2, 3\n"

@@ -9,11 +9,13 @@ here=$(cd "$(dirname "$0")" && pwd)
 build=$(cd "$1" && pwd)
 seconds=${2:-15}
 shift 2 2>/dev/null || shift $#
-kinds=${*:-stl obj ply step iges brep inp msh feature params}
+kinds=${*:-stl obj ply step iges brep inp msh feature params extract}
 bad="$here/../../shared/data/bad-input"
 work=$(mktemp -d /tmp/fe_fuzz_run.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 export FE_FUZZ_TMP="$work" FE_FUZZ_FEATURE="$here/../Resources/library/rib"
+# fuzz_extract's fixed partners: the reference when the input is the target, and the other way round
+export FE_FUZZ_REFERENCE="$work/seeds/extract_fixed/reference.stl" FE_FUZZ_TARGET="$work/seeds/extract_fixed/target.stl"
 export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 /usr/bin/python3 "$here/make_corpus.py" "$work/seeds" >/dev/null || { echo "fuzz: cannot make the seed corpus"; exit 1; }
 status=0
@@ -35,7 +37,7 @@ for kind in $kinds; do
   case $kind in
     step) reg+=("$bad"/step_*.step) ;;
     brep) reg+=("$bad"/brep_*.brep) ;;
-    stl) reg+=("$bad"/*.stl) ;;
+    stl|extract) reg+=("$bad"/*.stl) ;;
     obj) reg+=("$bad"/*.obj) ;;
     ply) reg+=("$bad"/*.ply) ;;
     feature) reg+=("$bad"/feature_*/feature.json) ;;
