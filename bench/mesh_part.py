@@ -4,7 +4,7 @@
     /usr/bin/python3 bench/mesh_part.py --build build [--case NAME] [--out rows.json]
 
 Per case: `featureextract mesh-part` (every instance carries its feature's mesh, gmsh meshes the rest,
-conforming, filled with tetrahedra: --solid) and `featureextract mesh-part --plain --solid` (gmsh meshes
+conforming, filled with 10-node tetrahedra: --solid; 4-node ones with --linear) and `featureextract mesh-part --plain --solid` (gmsh meshes
 everything; the same support and bolt faces), each solved by `ccx` (linear static: the face chosen as support held, a force on each bolt's
 rigid body). Prints nodes, elements, quality, conformity, meshing and solver time, and the results
 side by side: displacement of the bolt load points, the largest displacement, the largest von Mises
@@ -166,7 +166,7 @@ def summary(r):
     lines = [f"{r['case']}: {r['instances']} instances; surface {r['surface_nodes']} nodes / {r['surface_elements']} "
              f"elements (free edges {c['free_edges']}, duplicate nodes {c['duplicate_nodes']}, border nodes not joined "
              f"{c['border_nodes_not_joined']}, inverted {q['inverted']}, min scaled Jacobian {q['min_scaled_jacobian']:.2f}); "
-             f"solid {r['solid_elements']} C3D4 (plain {r['plain_solid_elements']}); mesh-part {r['mesh_seconds']} s "
+             f"solid {r['solid_elements']} {r.get('solid_type', 'C3D4')} (plain {r['plain_solid_elements']}); mesh-part {r['mesh_seconds']} s "
              f"(gmsh {r['gmsh_seconds']} s)"]
     for k in ("ccx_solid", "ccx_plain_solid", "ccx_shell"):
         x = r[k]
@@ -187,6 +187,8 @@ def main():
     ap.add_argument("--case", action="append")
     ap.add_argument("--work", default="/tmp/fe_mesh_part")
     ap.add_argument("--out")
+    ap.add_argument("--linear", action="store_true", help="4-node tetrahedra (C3D4) instead of mesh-part's 10-node default")
+    ap.add_argument("--size", help="element size of the rest (mesh-part --size), for every case")
     a = ap.parse_args()
     exe = os.path.join(a.build, "featureextract")
     all_rows = []
@@ -200,13 +202,17 @@ def main():
             subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "tools", "make_feature.py"), c["target"], fdir]
                            + c["make_feature"], check=True, capture_output=True)
             c["features"] = [fdir]
-        extra = c.get("extra", [])
+        extra = list(c.get("extra", []))
+        if a.size:  # replaces the case's own size
+            extra = [x for i, x in enumerate(extra) if x != "--size" and (i == 0 or extra[i - 1] != "--size")]
+            extra += ["--size", a.size]
+        solid_args = ["--solid"] + (["--linear"] if a.linear else [])
         res = {}
         for plain in (False, True):
             d = os.path.join(a.work, name + ("_plain" if plain else ""))
             os.makedirs(d, exist_ok=True)
             try:
-                res[plain] = mesh_and_solve(exe, c["target"], c["features"], d, plain, ["--solid"] + extra)
+                res[plain] = mesh_and_solve(exe, c["target"], c["features"], d, plain, solid_args + extra)
             except RuntimeError as e:
                 res[plain] = {"error": str(e)}
         d = os.path.join(a.work, name + "_shell")
@@ -227,7 +233,8 @@ def main():
         w = res[False]
         row = {"case": name, "instances": len(w["instances"]), "surface_nodes": w["mesh"]["nodes"],
                "surface_elements": w["mesh"]["elements"], "solid_nodes": w["solid"]["nodes"],
-               "solid_elements": w["solid"]["elements"], "plain_solid_elements": res[True]["solid"]["elements"],
+               "solid_elements": w["solid"]["elements"], "solid_type": w["solid"]["type"],
+               "middle_nodes_on_part": w["solid"].get("middle_nodes_on_part", 0), "plain_solid_elements": res[True]["solid"]["elements"],
                "conformity": w["conformity"], "quality": w["quality"], "solid_quality": w["solid"]["quality"],
                "repair": w.get("repair"),
                "mesh_seconds": w["mesh_seconds"], "gmsh_seconds": w["mesher"].get("seconds"),

@@ -41,7 +41,7 @@ py::dict summary_dict(const fe::QualitySummary& q) {
 }
 
 void bind_femesh(py::module_& m) {
-  py::class_<fe::FeMesh>(m, "FeMesh", "A finite-element mesh (S3/S4 shells, C3D4/C3D8 solids) with named node and element sets.")
+  py::class_<fe::FeMesh>(m, "FeMesh", "A finite-element mesh (S3/S4 shells, C3D4/C3D8/C3D10 solids) with named node and element sets.")
       .def_readonly("nodes", &fe::FeMesh::nodes, "(N, 3) node coordinates")
       .def_readonly("node_ids", &fe::FeMesh::node_ids, "external node ids")
       .def_readonly("node_sets", &fe::FeMesh::node_sets, "name -> 0-based node indices")
@@ -51,7 +51,7 @@ void bind_femesh(py::module_& m) {
         py::list out;
         for (const auto& b : x.blocks) out.append(py::make_tuple(fe::inp_type_name(b.type), b.ids, b.conn, b.elset));
         return out;
-      }, "[(type 'S3'|'S4'|'C3D4'|'C3D8', external ids, (n, k) 0-based node indices, elset name)]");
+      }, "[(type 'S3'|'S4'|'C3D4'|'C3D8'|'C3D10', external ids, (n, k) 0-based node indices, elset name)]");
   m.def("read_fe_mesh", &fe::read_fe_mesh, py::arg("path"), "Reads a .inp or .msh mesh (raises InputError naming the file).");
   m.def("write_inp", &fe::write_inp, py::arg("mesh"), py::arg("path"));
   m.def("write_msh", &fe::write_msh, py::arg("mesh"), py::arg("path"), "gmsh ASCII 4.1");

@@ -164,7 +164,7 @@ struct MeshPartArgs {
   std::vector<std::string> features;
   std::string target, output;
   double size, thickness, force, max_projection, time_limit;
-  bool quiet, plain, solid;
+  bool quiet, plain, solid, linear;
 };
 
 // featureextract mesh-part: extraction per feature, the mesh transfer per instance, overlaps resolved,
@@ -359,9 +359,16 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       say(std::string("internal error: ") + e.what());
       return 1;
     }
+    std::size_t on_part = 0;
+    if (!a.linear) {
+      progress("10-node tetrahedra", 0.0);
+      solid = fe::quadratic_solid(solid, whole, part_surface, &on_part);
+      progress("10-node tetrahedra", 1.0);
+    }
     const auto qs = fe::element_quality(solid);
     report["solid"] = {{"inp", "part_solid.inp"}, {"msh", "part_solid.msh"}, {"nodes", solid.nodes.rows()},
-                       {"elements", solid.num_elements()}, {"type", "C3D4"}, {"quality", quality(fe::summarize(qs))}};
+                       {"elements", solid.num_elements()}, {"type", a.linear ? "C3D4" : "C3D10"},
+                       {"middle_nodes_on_part", on_part}, {"quality", quality(fe::summarize(qs))}};
   }
   try {
     fe::write_inp(whole, (fs::path(a.output) / "part.inp").string());
@@ -384,7 +391,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     fe::write_ccx_static(a.solid ? solid : whole, a.solid ? "part_solid.inp" : "part.inp", an,
                          (fs::path(a.output) / "analysis.inp").string());
     report["analysis"] = {{"deck", "analysis.inp"}, {"mesh", a.solid ? "part_solid.inp" : "part.inp"},
-                          {"model", a.solid ? "solid (C3D4)" : "shell"}, {"thickness", a.solid ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(a.thickness)},
+                          {"model", a.solid ? (a.linear ? "solid (C3D4)" : "solid (C3D10)") : "shell"}, {"thickness", a.solid ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(a.thickness)},
                           {"force", a.force}, {"rigid_sets", an.rigid_sets}, {"fixed_face", rep.fixed_face}};
   } catch (const std::exception& e) {
     say(a.output + ": " + e.what());
@@ -477,7 +484,7 @@ int main(int argc, char** argv) {
   std::string ref_path, tgt_path, out_path, config_path, feature_dir;
   std::vector<std::string> feature_dirs;
   double part_size = 0, thickness = 0.2, force = 100.0;
-  bool plain = false, solid = false;
+  bool plain = false, solid = false, linear = false;
   std::string seed_text;
   int threads = -1;
   double time_limit = 0;
@@ -504,8 +511,9 @@ int main(int argc, char** argv) {
   mp->add_option("--size", part_size, "element size of the rest of the part (default: the features' element size, "
                                       "else 1/50 of the part's diagonal)")->check(finite_positive);
   mp->add_option("--thickness", thickness, "shell thickness of the analysis deck (default 0.2)")->check(finite_positive);
-  mp->add_flag("--solid", solid, "also fill the surface mesh with tetrahedra (C3D4, part_solid.inp/.msh); the analysis "
-                                 "deck then uses the solid");
+  CLI::Option* solid_flag = mp->add_flag("--solid", solid, "also fill the surface mesh with 10-node tetrahedra (C3D10, part_solid.inp/.msh; their "
+                                 "middle nodes on the part's surface); the analysis deck then uses the solid");
+  mp->add_flag("--linear", linear, "with --solid: 4-node tetrahedra (C3D4) instead of 10-node ones")->needs(solid_flag);
   mp->add_flag("--plain", plain, "mesh the whole part with gmsh, no feature mesh placed (the same analysis on a mesh "
                                  "without feature rules, for comparison); the features still say where the bolts are");
   mp->add_option("--force", force, "force on each rigid bolt connection, along -z (default 100)")->check(finite_non_negative);
@@ -584,7 +592,7 @@ int main(int argc, char** argv) {
   const auto started = std::chrono::steady_clock::now();
 
   if (mp->parsed()) {
-    MeshPartArgs a{feature_dirs, tgt_path, out_path, part_size, thickness, force, max_projection, time_limit, quiet, plain, solid};
+    MeshPartArgs a{feature_dirs, tgt_path, out_path, part_size, thickness, force, max_projection, time_limit, quiet, plain, solid, linear};
     return mesh_part(a, params, started);
   }
   const bool mesh_mode = me->parsed();

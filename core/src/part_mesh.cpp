@@ -137,6 +137,39 @@ void read_tagged_nodes(const nlohmann::json& rows, Eigen::Index first, FeMesh& m
   }
 }
 
+// Nearest point of a triangle mesh: the closest point over the triangles of the 8 centroids nearest
+// to the query (the triangulation is fine beside the elements that ask).
+class SurfaceFoot {
+ public:
+  explicit SurfaceFoot(const TriangleMesh& s) : s_(s), tree_(centroids(s)) {}
+  Eigen::Vector3d operator()(const Eigen::Vector3d& q) const {
+    tree_.knn(q, 8, idx_, d2_);
+    double best = INFINITY;
+    Eigen::Vector3d out = q;
+    for (const int t : idx_) {
+      const Eigen::Vector3d f = closest_point_on_triangle(q, vertex(t, 0), vertex(t, 1), vertex(t, 2));
+      if ((f - q).squaredNorm() < best) {
+        best = (f - q).squaredNorm();
+        out = f;
+      }
+    }
+    return out;
+  }
+
+ private:
+  static Points centroids(const TriangleMesh& s) {
+    Points c(s.triangles.rows(), 3);
+    for (Eigen::Index t = 0; t < s.triangles.rows(); ++t)
+      c.row(t) = (s.vertices.row(s.triangles(t, 0)) + s.vertices.row(s.triangles(t, 1)) + s.vertices.row(s.triangles(t, 2))) / 3;
+    return c;
+  }
+  Eigen::Vector3d vertex(int t, int k) const { return s_.vertices.row(s_.triangles(t, k)).transpose(); }
+  const TriangleMesh& s_;
+  KdTree3 tree_;
+  mutable std::vector<int> idx_;
+  mutable std::vector<float> d2_;
+};
+
 }  // namespace
 
 std::string set_name(const std::string& text) {
@@ -448,35 +481,38 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
   return out;
 }
 
+FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part) {
+  // surface edges: the surface elements' edges, and both diagonals of a quad (fill_job cuts each)
+  std::set<std::pair<int, int>> edges;
+  auto add = [&](int a, int b) { edges.insert({std::min(a, b), std::max(a, b)}); };
+  for (const ElementBlock& b : surface.blocks) {
+    if (!is_shell(b.type)) continue;
+    const int k = nodes_per_element(b.type);
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
+      for (int j = 0; j < k; ++j) add(b.conn(r, j), b.conn(r, (j + 1) % k));
+      if (k == 4) {
+        add(b.conn(r, 0), b.conn(r, 2));
+        add(b.conn(r, 1), b.conn(r, 3));
+      }
+    }
+  }
+  const auto on_surface = [&](int a, int b) { return edges.count({std::min(a, b), std::max(a, b)}) > 0; };
+  if (part.triangles.rows() == 0) return to_quadratic(solid, on_surface, {}, on_part);
+  const SurfaceFoot foot(part);
+  const auto place = [&](int a, int b, const Eigen::Vector3d& mid) -> Eigen::Vector3d {
+    if (!on_surface(a, b)) return mid;
+    const Eigen::Vector3d f = foot(mid);
+    const double len = (solid.nodes.row(a) - solid.nodes.row(b)).norm();
+    return (f - mid).norm() <= 0.25 * len ? f : mid;  // farther: another wall of a thin part, not this face
+  };
+  return to_quadratic(solid, on_surface, place, on_part);
+}
+
 RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const TriangleMesh& surface, const std::vector<int>& locked,
                             double min_scaled_jacobian, int passes, const std::vector<NodeAxis>& on_circles) {
   RepairReport rep;
   if (surface.triangles.rows() == 0 || patch_elements == 0) return rep;
-  // the surface: triangle centroids in a kd-tree
-  Points cent(surface.triangles.rows(), 3);
-  for (Eigen::Index t = 0; t < surface.triangles.rows(); ++t) {
-    const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(), b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                          c = surface.vertices.row(surface.triangles(t, 2)).transpose();
-    cent.row(t) = ((a + b + c) / 3).transpose();
-  }
-  const KdTree3 tree(cent);
-  std::vector<int> idx;
-  std::vector<float> d2;
-  auto foot = [&](const Eigen::Vector3d& q) {
-    tree.knn(q, 8, idx, d2);
-    double best = INFINITY;
-    Eigen::Vector3d out = q;
-    for (const int t : idx) {
-      const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(), b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                            c = surface.vertices.row(surface.triangles(t, 2)).transpose();
-      const Eigen::Vector3d f = closest_point_on_triangle(q, a, b, c);
-      if ((f - q).squaredNorm() < best) {
-        best = (f - q).squaredNorm();
-        out = f;
-      }
-    }
-    return out;
-  };
+  const SurfaceFoot foot(surface);
   // elements of the patches: rows, and which way the surface's normal counts as outward for them
   struct El { std::size_t block; Eigen::Index row; };
   std::vector<El> els;

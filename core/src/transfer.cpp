@@ -99,6 +99,7 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
           case ElementType::Quad4: order = {0, 3, 2, 1}; break;
           case ElementType::Tet4: order = {0, 2, 1, 3}; break;
           case ElementType::Hex8: order = {0, 3, 2, 1, 4, 7, 6, 5}; break;
+          case ElementType::Tet10: order = {0, 2, 1, 3, 6, 5, 4, 7, 9, 8}; break;  // corners 1, 2 swapped; their edges follow
         }
         const auto conn = b.conn;
         for (Eigen::Index r = 0; r < conn.rows(); ++r)

@@ -23,8 +23,12 @@ class MeshPart(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.dir = tempfile.mkdtemp(prefix="fe_mesh_part_")
-        cls.whole = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "whole"), False, ["--solid"])
-        cls.plain = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "plain"), True, ["--solid"])
+        # 10-node tetrahedra (the default of --solid) with a coarser rest: the solve of the default size
+        # takes ccx 220 s and 4 GB here; 4-node ones at the default size
+        coarse = ["--solid", "--size", "6"]
+        cls.whole = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "whole"), False, coarse)
+        cls.plain = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "plain"), True, coarse)
+        cls.linear = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "linear"), False, ["--solid", "--linear"])
         cls.shell = mesh_part.mesh_and_solve(EXE, PLATE, FEATURES, os.path.join(cls.dir, "shell"), False)
 
     @classmethod
@@ -74,12 +78,40 @@ class MeshPart(unittest.TestCase):
         self.assertGreaterEqual(self.whole["mesh"]["moved_onto_brep"], 0.99 * self.whole["mesh"]["patch_nodes"])
 
     def test_calculix_solves_the_solid_and_the_shell_without_a_word(self):
-        for r in (self.whole, self.plain, self.shell):
+        for r in (self.whole, self.plain, self.linear, self.shell):
             self.assertEqual(r["ccx"]["exit"], 0, r["ccx"])
             self.assertEqual(r["ccx"]["errors"], 0, r["ccx"])
             self.assertEqual(r["ccx"]["warnings"], 0, r["ccx"])
-        self.assertEqual(self.whole["solid"]["quality"]["inverted"], 0)
+        for r in (self.whole, self.plain, self.linear):
+            self.assertEqual(r["solid"]["quality"]["inverted"], 0, r["solid"])
+            self.assertGreater(r["solid"]["quality"]["min_scaled_jacobian"], 0, r["solid"])
         self.assertGreater(self.whole["solid"]["elements"], self.whole["mesh"]["elements"])
+
+    def test_the_solid_is_ten_node_tetrahedra_with_middles_on_the_part_and_in_the_sets(self):
+        self.assertEqual(self.whole["solid"]["type"], "C3D10")
+        self.assertEqual(self.whole["analysis"]["model"], "solid (C3D10)")
+        self.assertEqual(self.linear["solid"]["type"], "C3D4")
+        self.assertEqual(self.linear["solid"]["middle_nodes_on_part"], 0)
+        # the middles of surface edges on curved faces (fillets, holes, boss walls) are moved onto them
+        self.assertGreater(self.whole["solid"]["middle_nodes_on_part"], 1000, self.whole["solid"])
+
+        def read(run, name):
+            with open(os.path.join(self.dir, run, name)) as f:
+                return f.read()
+
+        def nset(text, name):
+            block = text.split(f"*NSET, NSET={name}\n", 1)[1].split("*", 1)[0]
+            return [int(v) for v in block.replace("\n", ",").split(",") if v.strip()]
+
+        solid, surface = read("whole", "part_solid.inp"), read("whole", "part.inp")
+        self.assertIn("TYPE=C3D10", solid)
+        self.assertNotIn("TYPE=C3D4,", solid)
+        # a bolt's set and the support take the middle nodes of their surface edges: about as many
+        # again as their corner nodes, so the rigid body and the support hold whole element faces
+        for name in ("SCREW_BOSS_1_BOLT_RIGID", "FIXED"):
+            corners, with_middles = len(nset(surface, name)), len(nset(solid, name))
+            self.assertGreater(with_middles, 1.8 * corners, name)
+            self.assertLess(with_middles, 4 * corners, name)
 
     def test_the_answer_agrees_with_a_plain_mesh_of_the_part(self):
         res = mesh_part.compare(self.whole, self.plain)

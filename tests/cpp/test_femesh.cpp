@@ -311,8 +311,8 @@ TEST(FeMesh, BadInputGetsOneLineNamingTheFile) {
   const std::string nodes = "*NODE\n1, 0, 0, 0\n2, 1, 0, 0\n3, 0, 1, 0\n";
   write(tmp("trunc.inp"), nodes + "*ELEMENT, TYPE=S3\n1, 1, 2");
   expect_input_error(tmp("trunc.inp"), "incomplete");
-  write(tmp("type.inp"), nodes + "*ELEMENT, TYPE=C3D10\n1, 1, 2, 3\n");
-  expect_input_error(tmp("type.inp"), "C3D10");
+  write(tmp("type.inp"), nodes + "*ELEMENT, TYPE=C3D20\n1, 1, 2, 3\n");
+  expect_input_error(tmp("type.inp"), "C3D20");
   write(tmp("missing_node.inp"), nodes + "*ELEMENT, TYPE=S3\n1, 1, 2, 99\n");
   expect_input_error(tmp("missing_node.inp"), "line 6: element 1 refers to missing node 99");
   write(tmp("missing_elem.inp"), nodes + "*ELEMENT, TYPE=S3\n1, 1, 2, 3\n*ELSET, ELSET=E\n1, 2\n");
@@ -335,10 +335,10 @@ TEST(FeMesh, BadInputGetsOneLineNamingTheFile) {
   const std::string msh = kMsh41;
   write(tmp("trunc.msh"), msh.substr(0, msh.find("10 1 2 3 4 6")));
   expect_input_error(tmp("trunc.msh"), "unexpected end of file");
-  std::string tet10 = msh;
-  tet10.replace(tet10.find("3 1 5 1"), 7, "3 1 11 1");
-  write(tmp("tet10.msh"), tet10);
-  expect_input_error(tmp("tet10.msh"), "unsupported gmsh element type 11 (10-node tetrahedron)");
+  std::string hex20 = msh;
+  hex20.replace(hex20.find("3 1 5 1"), 7, "3 1 17 1");
+  write(tmp("hex20.msh"), hex20);
+  expect_input_error(tmp("hex20.msh"), "unsupported gmsh element type 17 (20-node hexahedron)");
   std::string v40 = msh;
   v40.replace(v40.find("4.1 0 8"), 7, "4.0 0 8");
   write(tmp("v40.msh"), v40);
@@ -497,4 +497,130 @@ TEST(FeMeshWrite, InpNumbersFitCalculixsTwentyCharacters) {
   for (int i = 0; i < 3; ++i)
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.nodes(i, c), m.nodes(i, c), 1e-12 * std::max(1.0, std::abs(m.nodes(i, c))));
   EXPECT_EQ(back.nodes(0, 1), m.nodes(0, 1));  // what fits is still exact
+}
+
+// ------------------------------------------------------------------------------------------------
+// Quadratic tetrahedra (issue 12: the solid is filled with C3D10)
+
+namespace {
+// Two tetrahedra sharing the face 0-1-2 (apexes 3 above and 4 below), positive volumes.
+fe::FeMesh two_tets() {
+  fe::FeMesh m;
+  m.nodes.resize(5, 3);
+  m.nodes << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0.3, 0.3, 1, 0.3, 0.3, -1;
+  m.node_ids = {10, 20, 30, 40, 50};
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Tet4;
+  b.elset = "SOLID";
+  b.conn.resize(2, 4);
+  b.conn << 0, 1, 2, 3, 0, 2, 1, 4;
+  b.ids = {1, 2};
+  m.blocks.push_back(b);
+  m.node_sets["FACE"] = {0, 1, 2};
+  m.node_sets["APEX"] = {3};
+  return m;
+}
+Eigen::Vector3d at(const fe::FeMesh& m, int i) { return m.nodes.row(i).transpose(); }
+}  // namespace
+
+TEST(FeMeshQuadratic, MiddlesAreSharedAndSurfaceSetsTakeThem) {
+  const fe::FeMesh lin = two_tets();
+  const fe::FeMesh q = fe::to_quadratic(lin);
+  ASSERT_EQ(q.blocks[0].type, fe::ElementType::Tet10);
+  ASSERT_EQ(q.blocks[0].conn.cols(), 10);
+  EXPECT_EQ(q.nodes.rows(), 5 + 9);  // 12 tetrahedron edges, 3 of them shared
+  EXPECT_EQ(q.node_ids.size(), 14u);
+  EXPECT_EQ(q.node_ids[5], 51);  // new ids after the largest
+  static const int edge[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  for (Eigen::Index r = 0; r < 2; ++r)
+    for (int e = 0; e < 6; ++e) {
+      const auto& c = q.blocks[0].conn;
+      EXPECT_TRUE(at(q, c(r, 4 + e)).isApprox(0.5 * (at(q, c(r, edge[e][0])) + at(q, c(r, edge[e][1])))));
+    }
+  // the shared face's three edge middles are one node each, used by both tetrahedra
+  std::set<int> first(q.blocks[0].conn.row(0).data() + 4, q.blocks[0].conn.row(0).data() + 10);
+  int shared = 0;
+  for (int j = 4; j < 10; ++j) shared += first.count(q.blocks[0].conn(1, j)) ? 1 : 0;
+  EXPECT_EQ(shared, 3);
+  EXPECT_EQ(q.node_sets.at("FACE").size(), 6u);  // 3 corners + 3 middles
+  EXPECT_EQ(q.node_sets.at("APEX").size(), 1u);
+  // an edge said not to lie on the surface does not join
+  const fe::FeMesh q2 = fe::to_quadratic(lin, [](int a, int b) { return !((a == 0 && b == 1) || (a == 1 && b == 0)); });
+  EXPECT_EQ(q2.node_sets.at("FACE").size(), 5u);
+  // straight edges: the same quality as the linear tetrahedra
+  const auto ql = fe::element_quality(lin), qq = fe::element_quality(q);
+  for (int e = 0; e < 2; ++e) {
+    EXPECT_NEAR(qq[static_cast<std::size_t>(e)].scaled_jacobian, ql[static_cast<std::size_t>(e)].scaled_jacobian, 1e-12);
+    EXPECT_FALSE(qq[static_cast<std::size_t>(e)].inverted);
+  }
+}
+
+TEST(FeMeshQuadratic, CurvedMiddlesAreKeptUnlessTheyFoldATetrahedron) {
+  const fe::FeMesh lin = two_tets();
+  std::size_t moved = 99;
+  // the middle of edge 0-1 a little off the straight line: kept, and the quality drops below 1x
+  const fe::FeMesh bent = fe::to_quadratic(lin, {}, [](int a, int b, const Eigen::Vector3d& m) {
+    return (a + b == 1) ? Eigen::Vector3d(m + Eigen::Vector3d(0, -0.05, 0)) : m;
+  }, &moved);
+  EXPECT_EQ(moved, 1u);
+  const auto ql = fe::element_quality(lin), qb = fe::element_quality(bent);
+  EXPECT_LT(qb[0].scaled_jacobian, ql[0].scaled_jacobian);
+  EXPECT_GT(qb[0].scaled_jacobian, 0);
+  // moved across the tetrahedra (past the opposite corner): it would fold them, so it goes back
+  const fe::FeMesh folded = fe::to_quadratic(lin, {}, [](int a, int b, const Eigen::Vector3d& m) {
+    return (a + b == 1) ? Eigen::Vector3d(m + Eigen::Vector3d(0, 1.5, 0)) : m;
+  }, &moved);
+  EXPECT_EQ(moved, 0u);
+  for (const auto& e : fe::element_quality(folded)) EXPECT_FALSE(e.inverted);
+  // the quality measure itself sees the fold
+  fe::FeMesh forced = fe::to_quadratic(lin);
+  const int mid01 = forced.blocks[0].conn(0, 4);
+  forced.nodes.row(mid01) += Eigen::RowVector3d(0, 1.5, 0);
+  EXPECT_TRUE(fe::element_quality(forced)[0].inverted);
+  EXPECT_LT(fe::element_quality(forced)[0].scaled_jacobian, 0);
+}
+
+TEST(FeMeshQuadratic, Tet10RoundTripsAndReadsGmshsNodeOrder) {
+  const fe::FeMesh q = fe::to_quadratic(two_tets());
+  for (const char* ext : {"inp", "msh"}) {
+    const std::string path = tmp(std::string("tet10.") + ext);
+    ext == std::string("inp") ? fe::write_inp(q, path) : fe::write_msh(q, path);
+    const fe::FeMesh back = fe::read_fe_mesh(path);
+    ASSERT_EQ(back.blocks.size(), 1u) << ext;
+    EXPECT_EQ(back.blocks[0].type, fe::ElementType::Tet10) << ext;
+    EXPECT_EQ(back.blocks[0].conn, q.blocks[0].conn) << ext;
+    EXPECT_EQ(back.node_sets.at("FACE"), q.node_sets.at("FACE")) << ext;
+  }
+  std::stringstream inp;
+  inp << std::ifstream(tmp("tet10.inp")).rdbuf();
+  EXPECT_NE(inp.str().find("TYPE=C3D10"), std::string::npos);
+  // gmsh's own order (as gmsh 4.8 writes it after setOrder(2)): middles of 01, 12, 20, 30, 32, 31
+  const std::string msh = R"($MeshFormat
+2.2 0 8
+$EndMeshFormat
+$Nodes
+10
+1 0 0 0
+2 1 0 0
+3 0 1 0
+4 0 0 1
+5 0.5 0 0
+6 0.5 0.5 0
+7 0 0.5 0
+8 0 0 0.5
+9 0 0.5 0.5
+10 0.5 0 0.5
+$EndNodes
+$Elements
+1
+1 11 2 0 1 1 2 3 4 5 6 7 8 9 10
+$EndElements
+)";
+  write(tmp("gmsh_tet10.msh"), msh);
+  const fe::FeMesh g = fe::read_fe_mesh(tmp("gmsh_tet10.msh"));
+  ASSERT_EQ(g.blocks[0].type, fe::ElementType::Tet10);
+  const auto& c = g.blocks[0].conn;
+  EXPECT_TRUE(at(g, c(0, 8)).isApprox(0.5 * (at(g, c(0, 1)) + at(g, c(0, 3)))));  // Abaqus node 9: edge 2-4
+  EXPECT_TRUE(at(g, c(0, 9)).isApprox(0.5 * (at(g, c(0, 2)) + at(g, c(0, 3)))));  // Abaqus node 10: edge 3-4
+  EXPECT_FALSE(fe::element_quality(g)[0].inverted);
 }

@@ -343,6 +343,8 @@ def _fem_mesh(fe_mesh):
                 m.addFace(corners, n)
             elif kind == "C3D4":  # SMESH turns a tetrahedron the other way round (FreeCAD writes 0 2 1 3 back)
                 m.addVolume([corners[0], corners[2], corners[1], corners[3]], n)
+            elif kind == "C3D10":  # likewise, and the edge middles follow their corners (FreeCAD writes it back)
+                m.addVolume([corners[k] for k in (0, 2, 1, 3, 6, 5, 4, 7, 9, 8)], n)
             else:
                 m.addVolume(corners, n)
             original_ids.append(int(eid))
@@ -465,12 +467,13 @@ def _bolt_faces(shape, nodes, face_numbers, tol):
 _part_meshes = {}  # (shape, folders, options) -> output folder of a finished mesh-part run
 
 
-def _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed):
+def _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed, linear):
     return (target_obj.Document.Name, target_obj.Name, shape.hashCode(), tuple(feature_dirs),
-            bool(solid), size, float(force), int(seed))
+            bool(solid), size, float(force), int(seed), bool(linear))
 
 
-def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1, shape=None):
+def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1, shape=None,
+                      linear=False):
     """Runs `featureextract mesh-part` on the part (a child process: no fault in meshing can take
     FreeCAD down) and returns its output folder; the document is not touched, so this may run in the
     background (pass shape=target_shape(target_obj), taken on the GUI thread). progress(stage,
@@ -482,7 +485,7 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
     if not feature_dirs:
         raise FeatureExtractError("no feature folder given")
     shape = shape if shape is not None else target_shape(target_obj)
-    key = _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed)
+    key = _part_mesh_key(target_obj, shape, feature_dirs, solid, size, force, seed, linear)
     if key in _part_meshes and os.path.isfile(os.path.join(_part_meshes[key], "mesh_part.json")):
         return _part_meshes[key]
     work = tempfile.mkdtemp(prefix="fe_mesh_part_")
@@ -494,6 +497,8 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
         cmd += ["--feature", d]
     if solid:
         cmd.append("--solid")
+        if linear:
+            cmd.append("--linear")
     if size:
         cmd += ["--size", repr(float(size))]
     cmd += ["--force", repr(float(force))]
@@ -502,10 +507,10 @@ def compute_part_mesh(target_obj, feature_dirs, solid=True, size=None, force=100
     return out
 
 
-def mesh_part(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1):
+def mesh_part(target_obj, feature_dirs, solid=True, size=None, force=100.0, progress=None, seed=1, linear=False):
     """One FE mesh of the whole part (`featureextract mesh-part`, see compute_part_mesh): every instance
     of every feature folder carries the feature's mesh, gmsh meshes the rest, conforming; with
-    solid=True the surface is filled with tetrahedra. Adds a Fem::FemMeshObject of it and a CalculiX
+    solid=True the surface is filled with 10-node tetrahedra (C3D10; linear=True: 4-node, C3D4). Adds a Fem::FemMeshObject of it and a CalculiX
     analysis ready to solve in the FEM workbench: steel, the part held on the face mesh-part chose
     (the largest one away from the features), a force of `force` N on the faces of each feature's
     rigid bolt set, a CalculiX solver. Returns (mesh object, analysis). On any error the document is
@@ -515,7 +520,7 @@ def mesh_part(target_obj, feature_dirs, solid=True, size=None, force=100.0, prog
     if isinstance(feature_dirs, str):
         feature_dirs = [feature_dirs]
     shape = target_shape(target_obj)
-    out = compute_part_mesh(target_obj, feature_dirs, solid, size, force, progress, seed, shape)
+    out = compute_part_mesh(target_obj, feature_dirs, solid, size, force, progress, seed, shape, linear)
     with open(os.path.join(out, "mesh_part.json")) as f:
         report = json.load(f)
     mesh_file = os.path.join(out, "part_solid.inp" if solid else "part.inp")

@@ -1,7 +1,7 @@
 // Finite-element meshes: reading and writing Abaqus/CalculiX .inp and gmsh .msh, element quality.
 // A found feature receives a reference FE mesh that is mapped onto the target; these are the
 // containers, the file formats and the checks (inverted / distorted elements) for that mesh.
-// Linear elements only: 3- and 4-node shells, 4-node tetrahedra, 8-node hexahedra.
+// Linear elements (3- and 4-node shells, 4-node tetrahedra, 8-node hexahedra) and 10-node tetrahedra.
 // Eigen and std only (see README, "Layout").
 #pragma once
 
@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <map>
 #include <string>
@@ -16,17 +17,18 @@
 
 namespace fe {
 
-/// Linear element types. Abaqus/CalculiX: S3 / S4 (shells), C3D4 / C3D8 (solids); gmsh element
-/// types 2, 3, 4, 5. Node order is the common one of both formats (quad and hex bottom face
+/// Element types. Abaqus/CalculiX: S3 / S4 (shells), C3D4 / C3D8 / C3D10 (solids); gmsh element
+/// types 2, 3, 4, 5, 11. Node order is the common one of both formats (quad and hex bottom face
 /// counter-clockwise; tet/hex with positive volume when (x1-x0) x (x2-x0) . (x3-x0) > 0 resp. the
-/// top face 4-7 above the bottom face 0-3).
-enum class ElementType { Tri3, Quad4, Tet4, Hex8 };
+/// top face 4-7 above the bottom face 0-3). Tet10 is Abaqus's: corners 0-3, then the middles of the
+/// edges 01, 12, 20, 03, 13, 23 (gmsh lists 23 before 13; the .msh reader and writer swap them).
+enum class ElementType { Tri3, Quad4, Tet4, Hex8, Tet10 };
 
-/// Number of nodes of an element type (3, 4, 4, 8).
+/// Number of nodes of an element type (3, 4, 4, 8, 10).
 int nodes_per_element(ElementType type);
 /// True for Tri3 and Quad4.
 bool is_shell(ElementType type);
-/// "S3", "S4", "C3D4", "C3D8".
+/// "S3", "S4", "C3D4", "C3D8", "C3D10".
 const char* inp_type_name(ElementType type);
 
 /// Elements of one type.
@@ -55,9 +57,9 @@ struct FeMesh {
 /// (NSET=), *ELEMENT (TYPE=, ELSET=; records may continue over several lines), *NSET / *ELSET (ids,
 /// names of earlier sets, GENERATE); other keywords and their data are skipped. Set names are matched
 /// case-insensitively (the first spelling is kept). Element types are mapped to the four kinds
-/// (e.g. S4R -> Quad4, C3D8R -> Hex8), so writing back gives S3/S4/C3D4/C3D8; any other type (C3D10,
-/// S8R, beams and trusses such as B31 / T3D2, ...) is an InputError naming it.
-/// .msh: elements of types 2-5; point (15) and 2-node line (1) elements are not elements of the
+/// (e.g. S4R -> Quad4, C3D8R -> Hex8, C3D10M -> Tet10), so writing back gives S3/S4/C3D4/C3D8/C3D10;
+/// any other type (S8R, C3D20, beams and trusses such as B31 / T3D2, ...) is an InputError naming it.
+/// .msh: elements of types 2-5 and 11; point (15) and 2-node line (1) elements are not elements of the
 /// FeMesh but their nodes go into node sets named after their physical groups. Physical groups
 /// without a name are called "Physical<dim>D_<tag>"; every named group gives a set (dimension 0/1: node
 /// set, 2/3: element set), possibly empty. Blocks are formed per (element type, first physical group),
@@ -85,13 +87,29 @@ void write_inp(const FeMesh& m, const std::string& path);
 /// the files. Throws like write_inp.
 void write_msh(const FeMesh& m, const std::string& path);
 
+/// Every Tet4 block becomes Tet10 (CalculiX C3D10): one new node at the middle of each tetrahedron
+/// edge, shared by the tetrahedra around that edge. A new node joins every node set that holds both
+/// ends of its edge, where `on_surface(a, b)` (0-based node indices) says the edge lies on the surface
+/// (without it, every edge does): a fixed face or a bolt's hole then fixes and loads its middle nodes
+/// too, and a chord through the solid between two nodes of a set does not join it. `place` (optional)
+/// moves a surface edge's new node from the straight middle (e.g. onto the curved part); where that
+/// leaves a tetrahedron with a non-positive Jacobian at one of its nodes, the node goes back to the
+/// straight middle. New nodes take ids after the largest one. Other blocks are kept as they are.
+/// `moved` (optional) receives how many new nodes stayed where `place` put them.
+FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_surface = {},
+                    const std::function<Eigen::Vector3d(int, int, const Eigen::Vector3d&)>& place = {},
+                    std::size_t* moved = nullptr);
+
 /// Shape quality of one element (Verdict-style definitions).
 ///  aspect_ratio: Tri3: longest edge / shortest altitude * sqrt(3)/2; Quad4 and Hex8: longest edge /
 ///    shortest edge; Tet4: longest edge / (2 sqrt(6) inradius) (Verdict). 1 for a perfect element,
 ///    infinity for a degenerate one.
 ///  scaled_jacobian: minimum over the corners of the corner Jacobian divided by the product of the
 ///    corner's edge lengths (Tri3 scaled by 2/sqrt(3), Tet4 by sqrt(2)), so 1 for a perfect element,
-///    0 for a degenerate one, negative for an inverted one. Shells: the corner normal (e1 x e2) is
+///    0 for a degenerate one, negative for an inverted one. Tet10: its corner tetrahedron's value times
+///    the smallest ratio of the Jacobian determinant at one of its ten nodes to the straight
+///    tetrahedron's (the same as Tet4 for straight edges; smaller, down to negative, as the middle
+///    nodes move off the straight middles). Aspect ratio and angles are the corner tetrahedron's. Shells: the corner normal (e1 x e2) is
 ///    measured along the reference normal if given, else along the element's own normal.
 ///  min_angle_deg: smallest interior angle of the element's faces (60 for an equilateral
 ///    triangle and a regular tet, 90 for a square / cube).

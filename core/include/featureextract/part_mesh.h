@@ -107,6 +107,13 @@ std::string fill_job(const FeMesh& surface, double size);
 /// ("fe_gmsh_rest: ...") for an answer that does not fit the surface.
 FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json);
 
+/// The solid's tetrahedra made quadratic (C3D10, to_quadratic in femesh.h): the edges of the surface
+/// mesh's elements are its surface edges (their middles join the node sets holding both ends: FIXED,
+/// the bolt sets), and their middles go onto the part's surface `part` (its triangulation, nearest
+/// point) unless that is farther than a quarter of the edge (another wall) or folds a tetrahedron.
+/// `on_part` receives how many middles were moved onto the part.
+FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part = nullptr);
+
 /// A linear static analysis for CalculiX: the mesh (*INCLUDE of mesh_file), an isotropic material,
 /// a shell section of the given thickness on each of section_sets (together: every element), the node set `fixed_set` held in all six
 /// degrees of freedom, and per rigid set a reference node at the set's centroid, joined by *RIGID

@@ -11,6 +11,7 @@ int nodes_per_element(ElementType type) {
     case ElementType::Quad4: return 4;
     case ElementType::Tet4: return 4;
     case ElementType::Hex8: return 8;
+    case ElementType::Tet10: return 10;
   }
   return 0;
 }
@@ -23,6 +24,7 @@ const char* inp_type_name(ElementType type) {
     case ElementType::Quad4: return "S4";
     case ElementType::Tet4: return "C3D4";
     case ElementType::Hex8: return "C3D8";
+    case ElementType::Tet10: return "C3D10";
   }
   return "?";
 }

@@ -14,7 +14,8 @@ bool map_inp_type(const std::string& t, ElementType& out) {
       {"CPE4R", ElementType::Quad4}, {"CAX4", ElementType::Quad4},   {"CAX4R", ElementType::Quad4}, {"C3D4", ElementType::Tet4},
       {"C3D4H", ElementType::Tet4},  {"DC3D4", ElementType::Tet4},   {"C3D8", ElementType::Hex8},   {"C3D8R", ElementType::Hex8},
       {"C3D8I", ElementType::Hex8},  {"C3D8H", ElementType::Hex8},   {"C3D8RH", ElementType::Hex8}, {"C3D8IH", ElementType::Hex8},
-      {"DC3D8", ElementType::Hex8}};
+      {"DC3D8", ElementType::Hex8},  {"C3D10", ElementType::Tet10},  {"C3D10M", ElementType::Tet10}, {"C3D10H", ElementType::Tet10},
+      {"C3D10I", ElementType::Tet10}, {"DC3D10", ElementType::Tet10}};
   const auto it = table.find(t);
   if (it == table.end()) return false;
   out = it->second;
@@ -145,7 +146,7 @@ class InpReader {
       if (elem_type_.empty()) b_.fail_at(l, "*ELEMENT without TYPE=");
       ElementType t;
       if (!map_inp_type(elem_type_, t))
-        b_.fail_at(l, "unsupported element type " + excerpt(elem_type_) + " (supported: linear shells S3/S4 and solids C3D4/C3D8 and their variants)");
+        b_.fail_at(l, "unsupported element type " + excerpt(elem_type_) + " (supported: linear shells S3/S4 and solids C3D4/C3D8/C3D10 and their variants)");
       mode_ = Mode::Element;
       elem_elset_ = param("ELSET");
       b_.begin_block(t, elem_elset_);

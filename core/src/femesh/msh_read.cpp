@@ -70,6 +70,7 @@ int gmsh_nodes(long type) {
     case 3: return 4;
     case 4: return 4;
     case 5: return 8;
+    case 11: return 10;
     case 15: return 1;
     default: return 0;
   }
@@ -117,7 +118,7 @@ FeMesh read_msh(const std::string& path) {
   struct Elem {
     ElementType type;
     long id;
-    std::array<long, 8> nodes;
+    std::array<long, 10> nodes;
     std::vector<std::string> names;
     Builder::Loc loc;
   };
@@ -140,7 +141,14 @@ FeMesh read_msh(const std::string& path) {
       }
       return;
     }
-    const ElementType t = type == 2 ? ElementType::Tri3 : type == 3 ? ElementType::Quad4 : type == 4 ? ElementType::Tet4 : ElementType::Hex8;
+    const ElementType t = type == 2 ? ElementType::Tri3 : type == 3 ? ElementType::Quad4 : type == 4 ? ElementType::Tet4
+                        : type == 11 ? ElementType::Tet10 : ElementType::Hex8;
+    long tet10[10];
+    if (t == ElementType::Tet10) {  // gmsh lists the middle of edge 23 before that of edge 13; Abaqus after
+      std::copy(nodes, nodes + 10, tet10);
+      std::swap(tet10[8], tet10[9]);
+      nodes = tet10;
+    }
     auto merge = [&](Elem& e) {
       for (auto& n : names)
         if (std::find(e.names.begin(), e.names.end(), n) == e.names.end()) e.names.push_back(std::move(n));
@@ -164,7 +172,7 @@ FeMesh read_msh(const std::string& path) {
     if (gmsh_nodes(type) == 0) {
       const std::string name = gmsh_type_name(type);
       lx.error("unsupported gmsh element type " + std::to_string(type) + (name.empty() ? "" : " (" + name + ")") +
-               "; supported: 2 (triangle), 3 (quadrangle), 4 (tetrahedron), 5 (hexahedron), points and lines for node sets");
+               "; supported: 2 (triangle), 3 (quadrangle), 4 (tetrahedron), 5 (hexahedron), 11 (10-node tetrahedron), points and lines for node sets");
     }
   };
 
@@ -229,7 +237,7 @@ FeMesh read_msh(const std::string& path) {
       }
     } else if (section == "Elements") {
       have_elements = true;
-      long nodes[8];
+      long nodes[10];
       if (major == 2) {
         const long n = lx.need_count("number of elements");
         for (long i = 0; i < n; ++i) {

@@ -42,7 +42,7 @@ void write_msh(const FeMesh& m, const std::string& path) {
     int dim, tag;
     std::vector<int> phys;
     Eigen::Vector3d lo, hi;
-    std::vector<std::vector<std::size_t>> by_type{4};  // global element indices per ElementType
+    std::vector<std::vector<std::size_t>> by_type{5};  // global element indices per ElementType
   };
   std::vector<Entity> entities;
   std::map<std::pair<int, std::vector<int>>, std::size_t> entity_of;
@@ -174,7 +174,7 @@ void write_msh(const FeMesh& m, const std::string& path) {
   }
   out.put("$EndNodes\n");
   // Elements: per entity and type; then one point element per point entity, tags after the largest element id.
-  static const int gmsh_type[4] = {2, 3, 4, 5};
+  static const int gmsh_type[5] = {2, 3, 4, 5, 11};  // per ElementType
   long max_eid = 0, min_eid = 0;
   for (std::size_t g = 0; g < eids.size(); ++g) {
     max_eid = g == 0 ? eids[g] : std::max(max_eid, eids[g]);
@@ -191,7 +191,7 @@ void write_msh(const FeMesh& m, const std::string& path) {
   for (int dim : {2, 3})
     for (const auto& e : entities) {
       if (e.dim != dim) continue;
-      for (int t = 0; t < 4; ++t) {
+      for (int t = 0; t < 5; ++t) {
         const auto& v = e.by_type[static_cast<std::size_t>(t)];
         if (v.empty()) continue;
         out.put(std::to_string(e.dim) + " " + std::to_string(e.tag) + " " + std::to_string(gmsh_type[t]) + " " + std::to_string(v.size()) + "\n");
@@ -199,8 +199,10 @@ void write_msh(const FeMesh& m, const std::string& path) {
           const auto& b = m.blocks[static_cast<std::size_t>(refs[g].block)];
           out.num(eids[g]);
           for (Eigen::Index j = 0; j < b.conn.cols(); ++j) {
+            // gmsh's 10-node tetrahedron lists the middle of edge 23 before that of edge 13
+            const Eigen::Index k = b.type == ElementType::Tet10 && j >= 8 ? 17 - j : j;
             out.put(" ");
-            out.num(node_id(m, b.conn(refs[g].row, j)));
+            out.num(node_id(m, b.conn(refs[g].row, k)));
           }
           out.put("\n");
         }

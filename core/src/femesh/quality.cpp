@@ -83,7 +83,7 @@ double corner(const Vec3& origin, const Vec3& p, const Vec3& q, const Vec3& r) {
   return safe_ratio(a.cross(b).dot(c), a.norm() * b.norm() * c.norm());
 }
 
-ElementQuality tet_quality(const std::array<Vec3, 8>& x) {
+ElementQuality tet_quality(const std::array<Vec3, 10>& x) {
   ElementQuality q;
   // As for triangles (and in Verdict): the corner determinant, equal at all corners, over the largest
   // product of corner edge lengths.
@@ -108,7 +108,7 @@ ElementQuality tet_quality(const std::array<Vec3, 8>& x) {
   return q;
 }
 
-ElementQuality hex_quality(const std::array<Vec3, 8>& x) {
+ElementQuality hex_quality(const std::array<Vec3, 10>& x) {
   ElementQuality q;
   double sj = kInf;
   for (int k = 0; k < 4; ++k) {
@@ -132,6 +132,35 @@ ElementQuality hex_quality(const std::array<Vec3, 8>& x) {
   return q;
 }
 
+// Jacobian determinant of the quadratic tetrahedron (Abaqus node order) at barycentric point L.
+double tet10_det(const std::array<Vec3, 10>& x, const std::array<double, 4>& L) {
+  static const int mid[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  std::array<Vec3, 4> G;  // d x / d L_j
+  for (int j = 0; j < 4; ++j) G[static_cast<std::size_t>(j)] = (4 * L[static_cast<std::size_t>(j)] - 1) * x[static_cast<std::size_t>(j)];
+  for (int e = 0; e < 6; ++e) {
+    const int a = mid[e][0], b = mid[e][1];
+    G[static_cast<std::size_t>(a)] += 4 * L[static_cast<std::size_t>(b)] * x[static_cast<std::size_t>(4 + e)];
+    G[static_cast<std::size_t>(b)] += 4 * L[static_cast<std::size_t>(a)] * x[static_cast<std::size_t>(4 + e)];
+  }
+  return (G[1] - G[0]).cross(G[2] - G[0]).dot(G[3] - G[0]);
+}
+
+// The corner tetrahedron's quality, its scaled Jacobian times the smallest ratio of the quadratic
+// map's Jacobian at the ten nodes to the straight one's (femesh.h).
+ElementQuality tet10_quality(const std::array<Vec3, 10>& x) {
+  ElementQuality q = tet_quality(x);
+  const double straight = (x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0]);
+  if (!(straight > 0)) return q;
+  static const double at[10][4] = {{1, 0, 0, 0},     {0, 1, 0, 0},     {0, 0, 1, 0},     {0, 0, 0, 1},     {.5, .5, 0, 0},
+                                   {0, .5, .5, 0},   {.5, 0, .5, 0},   {.5, 0, 0, .5},   {0, .5, 0, .5},   {0, 0, .5, .5}};
+  double ratio = kInf;
+  for (const auto& l : at) ratio = std::min(ratio, tet10_det(x, {l[0], l[1], l[2], l[3]}) / straight);
+  q.scaled_jacobian *= std::min(1.0, ratio);
+  q.inverted = ratio <= 0;
+  if (q.inverted && q.scaled_jacobian > 0) q.scaled_jacobian = -q.scaled_jacobian;
+  return q;
+}
+
 }  // namespace
 
 std::vector<ElementQuality> element_quality(const FeMesh& m, const Points* reference_normals) {
@@ -144,7 +173,7 @@ std::vector<ElementQuality> element_quality(const FeMesh& m, const Points* refer
     const int k = nodes_per_element(b.type);
     if (b.conn.rows() > 0 && b.conn.cols() != k) throw std::invalid_argument("element_quality: block with wrong number of columns");
     for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
-      std::array<Vec3, 8> x;
+      std::array<Vec3, 10> x;
       for (int j = 0; j < k; ++j) {
         const int i = b.conn(r, j);
         if (i < 0 || i >= m.nodes.rows()) throw std::invalid_argument("element_quality: node index out of range");
@@ -156,6 +185,7 @@ std::vector<ElementQuality> element_quality(const FeMesh& m, const Points* refer
         case ElementType::Quad4: out.push_back(quad_quality({x[0], x[1], x[2], x[3]}, ref)); break;
         case ElementType::Tet4: out.push_back(tet_quality(x)); break;
         case ElementType::Hex8: out.push_back(hex_quality(x)); break;
+        case ElementType::Tet10: out.push_back(tet10_quality(x)); break;
       }
     }
   }
