@@ -410,7 +410,10 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     }
     row0 += p.mesh.nodes.rows();
     el0 += static_cast<int>(p.mesh.blocks.size());
-    const nlohmann::ordered_json rules = nlohmann::ordered_json::parse(fe::check_rules(placed, p.spec_json));
+    nlohmann::ordered_json rules = nlohmann::ordered_json::parse(fe::check_rules(placed, p.spec_json));
+    if (const std::string zone = a.plain ? "" : fe::check_transition(whole, rep.patch_elements, placed, p.spec_json, size); !zone.empty())
+      for (auto& r : rules)
+        if (r.value("rule", "") == "transition_zone") r = nlohmann::ordered_json::parse(zone);
     const Eigen::Vector3d lo = p.mesh.nodes.colwise().minCoeff().transpose(), hi = p.mesh.nodes.colwise().maxCoeff().transpose();
     report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
                                    {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},

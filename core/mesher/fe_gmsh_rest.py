@@ -11,7 +11,9 @@ JOB.json (written by the core):
         {"faces": [2, 3, ...],            # 1-based FaceN the patch covers (FreeCAD / TopExp order)
          "tolerance": 0.6,                # a node this close to a B-rep vertex / edge / face is put on it
          "nodes": [[key, x, y, z], ...],  # every patch node (key: the core's index)
-         "border": [key, ...]}]}          # the patch's border nodes (on its free edges)
+         "border": [key, ...],            # the patch's border nodes (on its free edges)
+         "transition": {"width": W, "size": s}}]}  # optional: the rest's size grows from s to "size"
+                                                   # over W around the patch (its border edges)
 
 OUT.json:
     {"nodes": [[tag, x, y, z], ...],      # nodes of the rest (gmsh tags), border nodes excluded
@@ -264,6 +266,32 @@ def main():
                 tol_of[c] = tol
             plans.append((mine, on_curve, vertex_key))
             log(f"patch {i}: {len(xyz)} nodes onto {len(boxes)} faces, {len(p['border'])} border nodes onto {len(mine)} curves")
+
+        # transition zones (a feature's "transition_zone" rule): around such a patch the rest's element
+        # size grows linearly from the patch's to the part's over the given width, measured from the
+        # patch's border edges
+        zones = []
+        for i, p in enumerate(patches):
+            z = p.get("transition")
+            if not z:
+                continue
+            width, small = float(z["width"]), float(z["size"])
+            curves = [c for c, o in border.items() if o == i]
+            if not (width > 0 and small > 0 and curves):
+                continue
+            d = gmsh.model.mesh.field.add("Distance")
+            gmsh.model.mesh.field.setNumbers(d, "CurvesList", curves)
+            gmsh.model.mesh.field.setNumber(d, "NumPointsPerCurve", 100)
+            t = gmsh.model.mesh.field.add("Threshold")
+            gmsh.model.mesh.field.setNumber(t, "InField", d)
+            for k, v in (("SizeMin", min(small, size)), ("SizeMax", size), ("DistMin", 0.0), ("DistMax", width)):
+                gmsh.model.mesh.field.setNumber(t, k, v)
+            zones.append(t)
+        if zones:
+            m = gmsh.model.mesh.field.add("Min")
+            gmsh.model.mesh.field.setNumbers(m, "FieldsList", zones)
+            gmsh.model.mesh.field.setAsBackgroundMesh(m)
+        report["transition_zones"] = len(zones)
 
         # the covered faces are not meshed: their mesh is the patches' (the model's entities go, the
         # curves they share with the rest stay)

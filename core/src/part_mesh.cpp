@@ -51,6 +51,28 @@ double median_edge(const FeMesh& m) {
   return len[len.size() / 2];
 }
 
+// The instance's scale, from the transform the transfer added to its specification (1 without one).
+double instance_scale(const nlohmann::json& spec) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
+  if (spec.is_object() && spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) A(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+  return std::cbrt(std::abs(A.determinant()));
+}
+
+// The width of the specification's transition zone on this instance (its "transition_zone" rule's
+// width times the instance's scale), 0 without one.
+double transition_width(const std::string& spec_json) {
+  const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
+  if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return 0;
+  for (const auto& r : spec["rules"])
+    if (r.is_object() && r.value("rule", "") == "transition_zone" && r.contains("width") && r["width"].is_number()) {
+      const double w = r["width"].get<double>() * instance_scale(spec);
+      return std::isfinite(w) && w > 0 ? w : 0;
+    }
+  return 0;
+}
+
 // The rest's triangles turned to agree with their neighbours across every shared edge (a shared edge
 // runs one way in one element and the other way in the next), starting from the patches, whose
 // orientation is the feature's (outward). gmsh orients a face's triangles by the face's parameters, not
@@ -239,6 +261,7 @@ std::string part_mesh_job(const std::string& part_path, int part_faces, double s
     nlohmann::json pj;
     pj["faces"] = p.faces;
     pj["tolerance"] = tolerance_factor * median_edge(p.mesh);
+    if (const double w = transition_width(p.spec_json); w > 0 && !plain) pj["transition"] = {{"width", w}, {"size", median_edge(p.mesh)}};
     pj["nodes"] = nlohmann::json::array();
     for (Eigen::Index i = 0; i < p.mesh.nodes.rows(); ++i)
       pj["nodes"].push_back({key + i, p.mesh.nodes(i, 0), p.mesh.nodes(i, 1), p.mesh.nodes(i, 2)});
@@ -707,6 +730,50 @@ std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
     out.push_back(r);
   }
   return out.dump();
+}
+
+std::string check_transition(const FeMesh& whole, std::size_t patch_elements, const FeMesh& patch, const std::string& spec_json,
+                             double rest_size) {
+  const double width = transition_width(spec_json);
+  if (!(width > 0)) return "";
+  const double small = median_edge(patch);
+  nlohmann::json r = {{"rule", "transition_zone"}, {"width", width}, {"from_size", small}, {"to_size", rest_size}};
+  const std::vector<int> border = border_nodes(patch);
+  Points bp(static_cast<Eigen::Index>(border.size()), 3);
+  for (std::size_t i = 0; i < border.size(); ++i) bp.row(static_cast<Eigen::Index>(i)) = patch.nodes.row(border[i]);
+  std::vector<double> ratios;
+  if (bp.rows() > 0 && rest_size > 0) {
+    const KdTree3 tree(bp);
+    std::size_t g = 0;
+    for (const ElementBlock& b : whole.blocks) {
+      const int k = nodes_per_element(b.type);
+      for (Eigen::Index e = 0; e < b.conn.rows(); ++e, ++g) {
+        if (g < patch_elements || !is_shell(b.type)) continue;
+        Eigen::Vector3d c = Eigen::Vector3d::Zero();
+        double edges = 0;
+        for (int j = 0; j < k; ++j) {
+          c += whole.nodes.row(b.conn(e, j)).transpose();
+          edges += (whole.nodes.row(b.conn(e, j)) - whole.nodes.row(b.conn(e, (j + 1) % k))).norm();
+        }
+        c /= k;
+        double d2 = 0;
+        if (tree.nearest(c, &d2) < 0) continue;
+        const double d = std::sqrt(d2);
+        if (d >= width) continue;
+        const double want = std::min(rest_size, small + (rest_size - small) * d / width);
+        ratios.push_back(edges / k / want);
+      }
+    }
+  }
+  std::sort(ratios.begin(), ratios.end());
+  const std::size_t within = static_cast<std::size_t>(std::upper_bound(ratios.begin(), ratios.end(), 1.5) - ratios.begin());
+  r["elements"] = ratios.size();
+  r["median_ratio"] = ratios.empty() ? 0.0 : ratios[ratios.size() / 2];
+  r["max_ratio"] = ratios.empty() ? 0.0 : ratios.back();
+  r["share_within_1.5"] = ratios.empty() ? 0.0 : static_cast<double>(within) / static_cast<double>(ratios.size());
+  r["ok"] = !ratios.empty() && r["share_within_1.5"].get<double>() >= 0.9;
+  r["text"] = "elements of the rest within the width of the instance's border: mean edge over the size the zone asks there";
+  return r.dump();
 }
 
 void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path) {

@@ -124,6 +124,38 @@ class MeshPart(unittest.TestCase):
         self.assertGreater(w["nodes_away"], 1000)
         self.assertLess(d["max_von_mises_away"], 0.30, res)
 
+    def test_a_transition_zone_grades_the_rest_around_the_instances(self):
+        # the boss feature with a 20 mm transition zone; the same plate and size as self.whole, which
+        # has none: the rest gets finer around the bosses, and the rule is checked on the output
+        feature = os.path.join(self.dir, "boss_with_zone")
+        shutil.copytree(FEATURES[1], feature)
+        with open(os.path.join(feature, "feature.json")) as f:
+            spec = json.load(f)
+        spec["rules"].append({"rule": "transition_zone", "width": 20.0,
+                              "text": "element size grows from the boss's to the part's over 20 mm around it"})
+        with open(os.path.join(feature, "feature.json"), "w") as f:
+            json.dump(spec, f)
+        out = os.path.join(self.dir, "zone")
+        r = subprocess.run([EXE, "mesh-part", "--target", PLATE, "--output", out, "--quiet", "--size", "6",
+                            "--feature", FEATURES[0], "--feature", feature], capture_output=True, text=True, timeout=900)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(os.path.join(out, "mesh_part.json")) as f:
+            rep = json.load(f)
+        self.assertEqual(rep["mesher"]["transition_zones"], 2)
+        self.assertEqual(self.whole["mesher"]["transition_zones"], 0)
+        for inst in rep["instances"]:
+            zone = [x for x in inst["rules"] if x["rule"] == "transition_zone"]
+            if not inst["name"].startswith("SCREW_BOSS"):
+                self.assertEqual(zone, [])
+                continue
+            self.assertEqual(len(zone), 1, inst["rules"])
+            self.assertTrue(zone[0]["ok"], zone)
+            self.assertGreater(zone[0]["elements"], 500, zone)
+            self.assertGreaterEqual(zone[0]["share_within_1.5"], 0.9, zone)
+        self.assertGreater(rep["mesh"]["rest_elements"], 1.05 * self.whole["mesh"]["rest_elements"])
+        self.assertEqual(rep["conformity"]["free_edges"], 0, rep["conformity"])
+        self.assertEqual(rep["quality"]["rest"]["inverted"], 0)
+
 
 class MeshPartErrors(unittest.TestCase):
     def run_cli(self, *args, env=None):

@@ -94,6 +94,16 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
 /// (at least half the elements quads).
 std::string check_rules(const FeMesh& patch, const std::string& spec_json);
 
+/// The specification's "transition_zone" rule ({"rule": "transition_zone", "width": W}: around the
+/// instance the rest's element size grows linearly from the patch's median edge to rest_size over W
+/// times the instance's scale; part_mesh_job passes it to the mesher) checked on the whole mesh: the
+/// rest's shell elements (after the first patch_elements) whose centroid lies within the width of
+/// the patch's border nodes, their mean edge over the size the zone asks at that distance. JSON
+/// object (elements, median_ratio, max_ratio, share_within_1.5, ok: at least 90 % within 1.5x), or
+/// "" when the specification has no such rule.
+std::string check_transition(const FeMesh& whole, std::size_t patch_elements, const FeMesh& patch, const std::string& spec_json,
+                             double rest_size);
+
 /// Free edges (edges of exactly one shell element) and pairs of distinct nodes closer than tolerance.
 void conformity(const FeMesh& m, double tolerance, std::size_t* free_edges, std::size_t* duplicate_nodes,
                 std::vector<int>* free_edge_elements = nullptr);
