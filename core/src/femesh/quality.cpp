@@ -157,7 +157,6 @@ ElementQuality tet10_quality(const std::array<Vec3, 10>& x) {
   for (const auto& l : at) ratio = std::min(ratio, tet10_det(x, {l[0], l[1], l[2], l[3]}) / straight);
   q.scaled_jacobian *= std::min(1.0, ratio);
   q.inverted = ratio <= 0;
-  if (q.inverted && q.scaled_jacobian > 0) q.scaled_jacobian = -q.scaled_jacobian;
   return q;
 }
 
