@@ -313,7 +313,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       const nlohmann::json spec = nlohmann::json::parse(p.spec_json, nullptr, false);
       bool on_circles = false;
       if (spec.is_object() && spec.contains("rules") && spec["rules"].is_array())
-        for (const auto& r : spec["rules"]) on_circles = on_circles || (r.is_object() && r.value("rule", "") == "nodes_on_circles");
+        for (const auto& r : spec["rules"]) on_circles = on_circles || (r.is_object() && r.contains("rule") && r["rule"] == "nodes_on_circles");
       if (on_circles && spec.contains("axis") && spec["axis"].is_object()) {
         fe::NodeAxis ax;
         for (int k = 0; k < 3; ++k) {

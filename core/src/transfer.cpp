@@ -43,6 +43,49 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+namespace {
+
+// The parts of a specification the mesh steps read as numbers ("rules", "axis", "element"), checked
+// once where the file is known, so that a malformed one is a one-line error naming feature.json and
+// not an exception from deep inside `mesh` or `mesh-part`.
+void check_spec(const nlohmann::json& j, const std::string& spec_path) {
+  auto vec3 = [&](const nlohmann::json& v, const std::string& what) {
+    if (!v.is_array() || v.size() != 3 || !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
+      fail(spec_path, what + " must be an array of 3 numbers");
+  };
+  if (j.contains("axis")) {
+    const auto& a = j["axis"];
+    if (!a.is_object() || !a.contains("point") || !a.contains("direction")) fail(spec_path, "\"axis\" must be an object with \"point\" and \"direction\"");
+    vec3(a["point"], "\"axis\".\"point\"");
+    vec3(a["direction"], "\"axis\".\"direction\"");
+    const double n = std::hypot(a["direction"][0].get<double>(), a["direction"][1].get<double>(), a["direction"][2].get<double>());
+    if (!(n > 0) || !std::isfinite(n)) fail(spec_path, "\"axis\".\"direction\" must not be zero");
+  }
+  if (j.contains("element")) {
+    if (!j["element"].is_object()) fail(spec_path, "\"element\" must be an object");
+    if (j["element"].contains("size") && !j["element"]["size"].is_number()) fail(spec_path, "\"element\".\"size\" must be a number");
+  }
+  if (!j.contains("rules")) return;
+  if (!j["rules"].is_array()) fail(spec_path, "\"rules\" must be an array");
+  for (std::size_t i = 0; i < j["rules"].size(); ++i) {
+    const auto& r = j["rules"][i];
+    const std::string at = "\"rules\"[" + std::to_string(i) + "]";
+    if (!r.is_object() || !r.contains("rule") || !r["rule"].is_string()) fail(spec_path, at + " must be an object with a string \"rule\"");
+    for (const char* key : {"angle_step_deg", "start_angle_deg", "width", "size"})
+      if (r.contains(key) && !r[key].is_number()) fail(spec_path, at + ".\"" + key + "\" must be a number");
+    const std::string name = r["rule"].get<std::string>();
+    if (name == "nodes_on_circles") {
+      if (!j.contains("axis")) fail(spec_path, at + " (nodes_on_circles) needs the feature's \"axis\"");
+      if (r.contains("angle_step_deg") && !(r["angle_step_deg"].get<double>() > 0 && r["angle_step_deg"].get<double>() <= 360))
+        fail(spec_path, at + ".\"angle_step_deg\" must be in (0, 360]");
+    }
+    if (name == "transition_zone" && !(r.contains("width") && r["width"].get<double>() > 0 && std::isfinite(r["width"].get<double>())))
+      fail(spec_path, at + " (transition_zone) needs a positive \"width\"");
+  }
+}
+
+}  // namespace
+
 FeatureModel read_feature(const std::string& dir) {
   namespace fs = std::filesystem;
   FeatureModel f;
@@ -64,6 +107,7 @@ FeatureModel read_feature(const std::string& dir) {
   for (const char* key : {"geometry", "mesh"})
     if (!j.contains(key) || !j[key].is_string()) fail(spec_path, std::string("needs \"") + key + "\": a file name in the folder");
   if (j.contains("name") && !j["name"].is_string()) fail(spec_path, "\"name\" must be a string");
+  check_spec(j, spec_path);
   f.name = j.value("name", fs::path(dir).filename().string());
   f.geometry_path = (fs::path(dir) / j["geometry"].get<std::string>()).string();
   f.mesh_path = (fs::path(dir) / j["mesh"].get<std::string>()).string();

@@ -103,6 +103,37 @@ class Cli(unittest.TestCase):
                 self.assertIn(os.path.join(BAD, name, "feature.json"), r.stderr)
                 self.assertIn(why, r.stderr)
 
+    def test_a_malformed_meshing_rule_is_a_one_line_error(self):
+        """The mesh steps read a feature's rules and axis as numbers: a rule that is not what they
+        expect is named with feature.json when the folder is read, for `mesh` and `mesh-part` alike,
+        not an exception from inside the transfer (a non-string "rule" used to end in an internal error)."""
+        import json
+        import shutil
+        boss = os.path.join(ROOT, "Resources", "library", "boss")
+        good = json.load(open(os.path.join(boss, "feature.json")))
+        rib = os.path.join(ROOT, "Resources", "library", "rib", "geometry.step")
+        cases = [("rule_not_a_string", lambda j: j["rules"].append({"rule": 5}), '"rules"[3] must be an object with a string "rule"'),
+                 ("zone_without_width", lambda j: j["rules"].append({"rule": "transition_zone", "width": "wide"}), '"rules"[3]."width" must be a number'),
+                 ("zone_negative", lambda j: j["rules"].append({"rule": "transition_zone", "width": -2}), "needs a positive \"width\""),
+                 ("rules_not_array", lambda j: j.update(rules={"rule": "element_size"}), '"rules" must be an array'),
+                 ("axis_short", lambda j: j["axis"].update(point=[1, 2]), '"axis"."point" must be an array of 3 numbers'),
+                 ("axis_zero", lambda j: j["axis"].update(direction=[0, 0, 0]), '"axis"."direction" must not be zero'),
+                 ("step_zero", lambda j: j["rules"][0].update(angle_step_deg=0), '"angle_step_deg" must be in (0, 360]')]
+        for name, spoil, why in cases:
+            folder = os.path.join(self.dir, name)
+            shutil.copytree(boss, folder)
+            j = json.loads(json.dumps(good))
+            spoil(j)
+            json.dump(j, open(os.path.join(folder, "feature.json"), "w"))
+            for cmd in (["mesh", "-q", "--feature", folder, "-t", rib, "-o", os.path.join(self.dir, name + "_out")],
+                        ["mesh-part", "-q", "--feature", folder, "--target", rib, "--output", os.path.join(self.dir, name + "_part")]):
+                with self.subTest(name=name, cmd=cmd[0]):
+                    r = run(*cmd)
+                    self.assertEqual(r.returncode, 3, r.stderr)
+                    self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+                    self.assertIn(os.path.join(folder, "feature.json"), r.stderr)
+                    self.assertIn(why, r.stderr)
+
     def test_every_option_is_checked(self):
         base = ["extract", "-q", "-r", REF, "-t", TGT, "-o", self.out]
         for opt, value in [("--threads", "-5"), ("--seed", "-1"), ("--seed", "1e3"), ("--time-limit", "nan"), ("--time-limit", "-1")]:
