@@ -66,7 +66,7 @@ double transition_width(const std::string& spec_json) {
   const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
   if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return 0;
   for (const auto& r : spec["rules"])
-    if (r.is_object() && r.value("rule", "") == "transition_zone" && r.contains("width") && r["width"].is_number()) {
+    if (r.is_object() && r.contains("rule") && r["rule"] == "transition_zone" && r.contains("width") && r["width"].is_number()) {
       const double w = r["width"].get<double>() * instance_scale(spec);
       return std::isfinite(w) && w > 0 ? w : 0;
     }
@@ -434,6 +434,15 @@ FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::stri
   return out;
 }
 
+// A quad of the surface is cut into two triangles across its shorter diagonal: 0-2 (true) or 1-3.
+// fill_job cuts it so, and quadratic_solid takes that diagonal, and only that one, as a surface edge.
+namespace {
+template <class Row>
+bool cut_02(const FeMesh& surface, const Row& c) {
+  return (surface.nodes.row(c(0)) - surface.nodes.row(c(2))).norm() <= (surface.nodes.row(c(1)) - surface.nodes.row(c(3))).norm();
+}
+}  // namespace
+
 std::string fill_job(const FeMesh& surface, double size) {
   nlohmann::json j;
   j["fill"] = true;
@@ -450,10 +459,7 @@ std::string fill_job(const FeMesh& surface, double size) {
         j["triangles"].push_back({c(0) + 1, c(1) + 1, c(2) + 1});
         continue;
       }
-      // a quad becomes two triangles across its shorter diagonal
-      const double d02 = (surface.nodes.row(c(0)) - surface.nodes.row(c(2))).norm(),
-                   d13 = (surface.nodes.row(c(1)) - surface.nodes.row(c(3))).norm();
-      if (d02 <= d13) {
+      if (cut_02(surface, c)) {
         j["triangles"].push_back({c(0) + 1, c(1) + 1, c(2) + 1});
         j["triangles"].push_back({c(0) + 1, c(2) + 1, c(3) + 1});
       } else {
@@ -505,7 +511,7 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
 }
 
 FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part) {
-  // surface edges: the surface elements' edges, and both diagonals of a quad (fill_job cuts each)
+  // surface edges: the surface elements' edges, and the diagonal fill_job cut each quad across
   std::set<std::pair<int, int>> edges;
   auto add = [&](int a, int b) { edges.insert({std::min(a, b), std::max(a, b)}); };
   for (const ElementBlock& b : surface.blocks) {
@@ -513,10 +519,7 @@ FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const Triangl
     const int k = nodes_per_element(b.type);
     for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
       for (int j = 0; j < k; ++j) add(b.conn(r, j), b.conn(r, (j + 1) % k));
-      if (k == 4) {
-        add(b.conn(r, 0), b.conn(r, 2));
-        add(b.conn(r, 1), b.conn(r, 3));
-      }
+      if (k == 4) cut_02(surface, b.conn.row(r)) ? add(b.conn(r, 0), b.conn(r, 2)) : add(b.conn(r, 1), b.conn(r, 3));
     }
   }
   const auto on_surface = [&](int a, int b) { return edges.count({std::min(a, b), std::max(a, b)}) > 0; };

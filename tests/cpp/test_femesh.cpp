@@ -580,6 +580,44 @@ TEST(FeMeshQuadratic, CurvedMiddlesAreKeptUnlessTheyFoldATetrahedron) {
   EXPECT_LT(fe::element_quality(forced)[0].scaled_jacobian, 0);
 }
 
+TEST(FeMeshQuadratic, AGivenTet10BlockIsKeptAndUnmovedMiddlesAreNotCounted) {
+  // a mesh that already has a Tet10 block beside a Tet4 one: only the Tet4 block gets new middles,
+  // and the fold check reads only those (the given block's middles are old nodes)
+  fe::FeMesh lin = two_tets();
+  fe::FeMesh mixed = fe::to_quadratic(lin);
+  fe::ElementBlock t4;
+  t4.type = fe::ElementType::Tet4;
+  t4.conn.resize(1, 4);
+  const Eigen::Index n = mixed.nodes.rows();
+  mixed.nodes.conservativeResize(n + 1, 3);
+  mixed.nodes.row(n) << 1.2, 1.2, 0.3;  // a third tetrahedron on face 1-2-3, outside
+  mixed.node_ids.push_back(99);
+  t4.conn << 2, 1, static_cast<int>(n), 3;
+  ASSERT_GT(fe::element_quality([&] { fe::FeMesh one; one.nodes = mixed.nodes; one.blocks = {t4}; return one; }())[0].scaled_jacobian, 0);
+  mixed.blocks.push_back(t4);
+  std::size_t moved = 99;
+  // place returns the straight middle up to rounding: nothing counts as moved
+  const fe::FeMesh q = fe::to_quadratic(mixed, {}, [](int, int, const Eigen::Vector3d& m) { return Eigen::Vector3d(m * (1 + 1e-15)); }, &moved);
+  EXPECT_EQ(moved, 0u);
+  ASSERT_EQ(q.blocks.size(), 2u);
+  EXPECT_EQ(q.blocks[0].conn, mixed.blocks[0].conn);  // the given Tet10 block unchanged
+  EXPECT_EQ(q.blocks[1].type, fe::ElementType::Tet10);
+  // its 6 edges: 1-2, 1-3 and 2-3 are the given block's, whose middles it shares; 3 middles are new
+  EXPECT_EQ(q.nodes.rows(), n + 1 + 3);
+  EXPECT_EQ(q.blocks[1].conn(0, 4), mixed.blocks[0].conn(0, 5));  // middle of 1-2: the first tetrahedron's edge 1-2
+  // a fold among the new middles is still undone with the Tet10 block before it
+  const int far = static_cast<int>(n);
+  const Eigen::Vector3d push(-2.5, -2.5, 0.2);  // the middle of 2-n pushed back across the tetrahedron
+  fe::FeMesh forced = q;
+  forced.nodes.row(q.blocks[1].conn(0, 6)) += push.transpose();  // Tet10 node 6: the middle of its corners 2 and 0 (nodes n and 2)
+  ASSERT_TRUE(fe::element_quality(forced)[2].inverted);           // kept there, it would fold the third tetrahedron
+  const fe::FeMesh f = fe::to_quadratic(mixed, {}, [&](int a, int b, const Eigen::Vector3d& m) {
+    return (std::min(a, b) == 2 && std::max(a, b) == far) ? Eigen::Vector3d(m + push) : m;
+  }, &moved);
+  EXPECT_EQ(moved, 0u);
+  for (const auto& e : fe::element_quality(f)) EXPECT_FALSE(e.inverted);
+}
+
 TEST(FeMeshQuadratic, Tet10RoundTripsAndReadsGmshsNodeOrder) {
   const fe::FeMesh q = fe::to_quadratic(two_tets());
   for (const char* ext : {"inp", "msh"}) {

@@ -341,7 +341,7 @@ def _fem_mesh(fe_mesh):
             corners = [int(ids[k]) for k in row]
             if kind in ("S3", "S4"):
                 m.addFace(corners, n)
-            elif kind == "C3D4":  # SMESH turns a tetrahedron the other way round (FreeCAD writes 0 2 1 3 back)
+            elif kind == "C3D4":  # SMESH turns a tetrahedron the other way round (FreeCAD's writer reorders 1 0 2 3: Abaqus's turn again)
                 m.addVolume([corners[0], corners[2], corners[1], corners[3]], n)
             elif kind == "C3D10":  # likewise, and the edge middles follow their corners (FreeCAD writes it back)
                 m.addVolume([corners[k] for k in (0, 2, 1, 3, 6, 5, 4, 7, 9, 8)], n)

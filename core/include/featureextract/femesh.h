@@ -56,7 +56,7 @@ struct FeMesh {
 /// .inp: keywords case-insensitive, "**" comments, *INCLUDE (INPUT= relative to the file), *NODE
 /// (NSET=), *ELEMENT (TYPE=, ELSET=; records may continue over several lines), *NSET / *ELSET (ids,
 /// names of earlier sets, GENERATE); other keywords and their data are skipped. Set names are matched
-/// case-insensitively (the first spelling is kept). Element types are mapped to the four kinds
+/// case-insensitively (the first spelling is kept). Element types are mapped to the five kinds
 /// (e.g. S4R -> Quad4, C3D8R -> Hex8, C3D10M -> Tet10), so writing back gives S3/S4/C3D4/C3D8/C3D10;
 /// any other type (S8R, C3D20, beams and trusses such as B31 / T3D2, ...) is an InputError naming it.
 /// .msh: elements of types 2-5 and 11; point (15) and 2-node line (1) elements are not elements of the
@@ -94,7 +94,8 @@ void write_msh(const FeMesh& m, const std::string& path);
 /// too, and a chord through the solid between two nodes of a set does not join it. `place` (optional)
 /// moves a surface edge's new node from the straight middle (e.g. onto the curved part); where that
 /// leaves a tetrahedron with a non-positive Jacobian at one of its nodes, the node goes back to the
-/// straight middle. New nodes take ids after the largest one. Other blocks are kept as they are.
+/// straight middle. New nodes take ids after the largest one. Other blocks are kept as they are; a
+/// Tet10 block's middles are shared by Tet4 tetrahedra on the same edges (no duplicate middle node).
 /// `moved` (optional) receives how many new nodes stayed where `place` put them.
 FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_surface = {},
                     const std::function<Eigen::Vector3d(int, int, const Eigen::Vector3d&)>& place = {},

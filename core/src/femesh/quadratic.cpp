@@ -34,6 +34,12 @@ FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_sur
   const Eigen::Index n0 = m.nodes.rows();
   std::unordered_map<std::uint64_t, int> middle;  // edge -> new node index
   std::vector<std::pair<int, int>> ends;           // per new node, its edge
+  // a Tet10 block given keeps its middles, and a Tet4 neighbour shares them (no duplicate node on a shared edge)
+  for (const ElementBlock& b : m.blocks) {
+    if (b.type != ElementType::Tet10) continue;
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r)
+      for (int e = 0; e < 6; ++e) middle.emplace(edge_key(b.conn(r, kEdge[e][0]), b.conn(r, kEdge[e][1])), b.conn(r, 4 + e));
+  }
   for (const ElementBlock& b : m.blocks) {
     if (b.type != ElementType::Tet4) continue;
     for (Eigen::Index r = 0; r < b.conn.rows(); ++r)
@@ -54,8 +60,11 @@ FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_sur
     long next = *std::max_element(m.node_ids.begin(), m.node_ids.end());
     for (Eigen::Index k = 0; k < added; ++k) out.node_ids.push_back(++next);
   }
-  for (ElementBlock& b : out.blocks) {
+  std::vector<char> converted(out.blocks.size(), 0);  // the blocks made Tet10 here (a Tet10 block given has no new middles)
+  for (std::size_t bi = 0; bi < out.blocks.size(); ++bi) {
+    ElementBlock& b = out.blocks[bi];
     if (b.type != ElementType::Tet4) continue;
+    converted[bi] = 1;
     const auto conn = b.conn;
     b.type = ElementType::Tet10;
     b.conn.resize(conn.rows(), 10);
@@ -83,7 +92,8 @@ FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_sur
       const auto [a, c] = ends[static_cast<std::size_t>(k)];
       const Eigen::Vector3d mid = out.nodes.row(n0 + k).transpose();
       const Eigen::Vector3d q = place(a, c, mid);
-      if (!q.allFinite() || q == mid) continue;
+      // a node `place` leaves on the straight middle (within rounding of the edge) is not counted as moved
+      if (!q.allFinite() || (q - mid).norm() <= 1e-9 * (m.nodes.row(a) - m.nodes.row(c)).norm()) continue;
       out.nodes.row(n0 + k) = q.transpose();
       placed[static_cast<std::size_t>(k)] = 1;
     }
@@ -91,15 +101,16 @@ FeMesh to_quadratic(const FeMesh& m, const std::function<bool(int, int)>& on_sur
     // curved middles it balanced. Each pass only puts nodes back, so this ends.
     for (bool changed = true; changed;) {
       changed = false;
-      for (const ElementBlock& b : out.blocks) {
-        if (b.type != ElementType::Tet10) continue;
+      for (std::size_t bi = 0; bi < out.blocks.size(); ++bi) {
+        const ElementBlock& b = out.blocks[bi];
+        if (!converted[bi]) continue;
         for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
           bool any = false;
-          for (int j = 4; j < 10; ++j) any = any || placed[static_cast<std::size_t>(b.conn(r, j) - n0)];
+          for (int j = 4; j < 10; ++j) any = any || (b.conn(r, j) >= n0 && placed[static_cast<std::size_t>(b.conn(r, j) - n0)]);
           if (!any || !folded(out, b, r)) continue;
           for (int j = 4; j < 10; ++j) {
-            const Eigen::Index k = b.conn(r, j) - n0;
-            if (placed[static_cast<std::size_t>(k)]) {
+            const Eigen::Index k = b.conn(r, j) - n0;  // < 0: a given block's middle, never moved here
+            if (k >= 0 && placed[static_cast<std::size_t>(k)]) {
               const auto [a, c] = ends[static_cast<std::size_t>(k)];
               out.nodes.row(n0 + k) = 0.5 * (m.nodes.row(a) + m.nodes.row(c));
               placed[static_cast<std::size_t>(k)] = 0;
