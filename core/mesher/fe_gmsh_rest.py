@@ -227,7 +227,11 @@ def main():
             on_curve = {c: [] for c in mine}
             vertex_key = {}
             for key in p["border"]:
-                q = moved.get(key, xyz[key])
+                # from where the transfer put it, not from the face projection above: gmsh 4.8's closest
+                # point on a trimmed surface can be a wrong local one (on a boss's root fillet, a node of
+                # the root circle went 3.2 degrees round the circle), while its closest point on a curve
+                # is exact (a circle's is radial, so the node keeps its angle about the axis)
+                q = xyz[key]
                 best = None
                 for c in mine:
                     if bbox_distance(curve_box[c], q) > btol:
