@@ -233,7 +233,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       std::vector<std::string> rigid;
       if (spec.is_object() && spec.contains("analysis") && spec["analysis"].is_array())
         for (const auto& an : spec["analysis"])
-          if (an.is_object() && an.value("kind", "") == "rigid_body" && an.contains("node_set") && an["node_set"].is_string())
+          if (an.is_object() && an.contains("kind") && an["kind"] == "rigid_body" && an.contains("node_set") && an["node_set"].is_string())
             rigid.push_back(an["node_set"].get<std::string>());
       if (spec.is_object() && spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
           spec["element"]["size"].is_number())
@@ -413,7 +413,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     nlohmann::ordered_json rules = nlohmann::ordered_json::parse(fe::check_rules(placed, p.spec_json));
     if (const std::string zone = a.plain ? "" : fe::check_transition(whole, rep.patch_elements, placed, p.spec_json, size); !zone.empty())
       for (auto& r : rules)
-        if (r.value("rule", "") == "transition_zone") r = nlohmann::ordered_json::parse(zone);
+        if (r.contains("rule") && r["rule"] == "transition_zone") r = nlohmann::ordered_json::parse(zone);
     const Eigen::Vector3d lo = p.mesh.nodes.colwise().minCoeff().transpose(), hi = p.mesh.nodes.colwise().maxCoeff().transpose();
     report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
                                    {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},

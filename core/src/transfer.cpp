@@ -65,6 +65,16 @@ void check_spec(const nlohmann::json& j, const std::string& spec_path) {
     if (!j["element"].is_object()) fail(spec_path, "\"element\" must be an object");
     if (j["element"].contains("size") && !j["element"]["size"].is_number()) fail(spec_path, "\"element\".\"size\" must be a number");
   }
+  if (j.contains("analysis")) {
+    if (!j["analysis"].is_array()) fail(spec_path, "\"analysis\" must be an array");
+    for (std::size_t i = 0; i < j["analysis"].size(); ++i) {
+      const auto& an = j["analysis"][i];
+      const std::string at = "\"analysis\"[" + std::to_string(i) + "]";
+      if (!an.is_object()) fail(spec_path, at + " must be an object");
+      for (const char* key : {"kind", "node_set"})
+        if (an.contains(key) && !an[key].is_string()) fail(spec_path, at + ".\"" + key + "\" must be a string");
+    }
+  }
   if (!j.contains("rules")) return;
   if (!j["rules"].is_array()) fail(spec_path, "\"rules\" must be an array");
   for (std::size_t i = 0; i < j["rules"].size(); ++i) {

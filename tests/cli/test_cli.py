@@ -118,7 +118,8 @@ class Cli(unittest.TestCase):
                  ("rules_not_array", lambda j: j.update(rules={"rule": "element_size"}), '"rules" must be an array'),
                  ("axis_short", lambda j: j["axis"].update(point=[1, 2]), '"axis"."point" must be an array of 3 numbers'),
                  ("axis_zero", lambda j: j["axis"].update(direction=[0, 0, 0]), '"axis"."direction" must not be zero'),
-                 ("step_zero", lambda j: j["rules"][0].update(angle_step_deg=0), '"angle_step_deg" must be in (0, 360]')]
+                 ("step_zero", lambda j: j["rules"][0].update(angle_step_deg=0), '"angle_step_deg" must be in (0, 360]'),
+                 ("analysis_kind_number", lambda j: j["analysis"][0].update(kind=1), '"analysis"[0]."kind" must be a string')]
         for name, spoil, why in cases:
             folder = os.path.join(self.dir, name)
             shutil.copytree(boss, folder)
