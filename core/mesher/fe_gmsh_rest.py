@@ -149,6 +149,19 @@ def main():
                     except Exception:
                         continue
                     d = dist(cp, q)
+                    # the closest point of a face is inside it or on its boundary curves; gmsh 4.8 can
+                    # return a wrong local point on a trimmed surface (a boss's root fillet: 1.6 mm round
+                    # the root circle, so the root nodes failed their ring angles), while a curve's closest
+                    # point is exact: a boundary point nearer than gmsh's answer replaces it
+                    for c in face_curves.get(s, []):
+                        if bbox_distance(curve_boxes[c], q) >= d:
+                            continue
+                        try:
+                            cc, _ = gmsh.model.getClosestPoint(1, c, list(q))
+                        except Exception:  # a degenerate edge (a cone's apex) has no curve
+                            continue
+                        if dist(cc, q) < d:
+                            cp, d = cc, dist(cc, q)
                     if best is None or d < best[0]:
                         best = (d, cp, s)
                 if best is not None and best[0] <= tol:
@@ -227,11 +240,7 @@ def main():
             on_curve = {c: [] for c in mine}
             vertex_key = {}
             for key in p["border"]:
-                # from where the transfer put it, not from the face projection above: gmsh 4.8's closest
-                # point on a trimmed surface can be a wrong local one (on a boss's root fillet, a node of
-                # the root circle went 3.2 degrees round the circle), while its closest point on a curve
-                # is exact (a circle's is radial, so the node keeps its angle about the axis)
-                q = xyz[key]
+                q = moved.get(key, xyz[key])
                 best = None
                 for c in mine:
                     if bbox_distance(curve_box[c], q) > btol:
