@@ -117,6 +117,31 @@ nlohmann::ordered_json quality(const fe::QualitySummary& q) {
           {"median_aspect_ratio", num(q.median_aspect_ratio)}, {"min_angle_deg", num(q.min_angle_deg)}};
 }
 
+// Issue 12's quality goal on a placed patch: a scaled Jacobian of at least 0.3 on every element whose
+// counterpart in the feature's own mesh has at least 0.5 (an element poor in the reference stays out).
+// `total` adds up over the patches.
+struct QualityGoal {
+  std::size_t judged = 0, below = 0;
+  double min_sj = INFINITY;
+};
+nlohmann::ordered_json quality_goal(const std::vector<fe::ElementQuality>& placed, const std::vector<double>& reference, QualityGoal* total) {
+  QualityGoal g;
+  if (reference.size() == placed.size())
+    for (std::size_t e = 0; e < placed.size(); ++e) {
+      if (!(reference[e] >= 0.5)) continue;
+      ++g.judged;
+      g.min_sj = std::min(g.min_sj, placed[e].scaled_jacobian);
+      g.below += placed[e].scaled_jacobian < 0.3;
+    }
+  if (total) {
+    total->judged += g.judged;
+    total->below += g.below;
+    total->min_sj = std::min(total->min_sj, g.min_sj);
+  }
+  if (reference.size() != placed.size()) return {{"ok", nullptr}, {"why", "the feature's mesh and the placed one differ in elements"}};
+  return {{"elements_good_in_reference", g.judged}, {"min_scaled_jacobian", num(g.min_sj)}, {"below_0_3", g.below}, {"ok", g.below == 0}};
+}
+
 // A helper program of the CLI: the file $env names, else `name` next to this executable, else in
 // ../share/featureextract beside it (an installed tree); "" when there is none.
 std::string helper_program(const char* env, const char* name) {
@@ -238,6 +263,8 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       if (spec.is_object() && spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
           spec["element"]["size"].is_number())
         feature_size = feature_size > 0 ? std::min(feature_size, spec["element"]["size"].get<double>()) : spec["element"]["size"].get<double>();
+      std::vector<double> reference_sj;
+      for (const fe::ElementQuality& q : fe::element_quality(feature.mesh)) reference_sj.push_back(q.scaled_jacobian);
       nlohmann::ordered_json fj = {{"folder", a.features[fi]}, {"name", feature.name}, {"found", result.matches.size()}};
       std::size_t k = 0;
       for (const fe::Match& m : result.matches) {
@@ -254,6 +281,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
         }
         p.faces = m.faces;
         p.score = m.score;
+        p.reference_scaled_jacobian = reference_sj;
         p.feature = feature.name;
         for (const auto& r : rigid)
           if (p.mesh.node_sets.count(r)) p.rigid_sets.push_back(p.name + "_" + r);
@@ -398,6 +426,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
     return 4;
   }
   report["instances"] = nlohmann::ordered_json::array();
+  QualityGoal goal;
   long row0 = 0;
   int el0 = 0;  // blocks before this patch's
   for (const auto& p : patches) {
@@ -415,10 +444,12 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       for (auto& r : rules)
         if (r.contains("rule") && r["rule"] == "transition_zone") r = nlohmann::ordered_json::parse(zone);
     const Eigen::Vector3d lo = p.mesh.nodes.colwise().minCoeff().transpose(), hi = p.mesh.nodes.colwise().maxCoeff().transpose();
+    const std::vector<fe::ElementQuality> placed_q = fe::element_quality(placed);
     report["instances"].push_back({{"name", p.name}, {"feature", p.feature}, {"score", p.score}, {"faces", p.faces},
                                    {"nodes", p.mesh.nodes.rows()}, {"elements", p.mesh.num_elements()},
                                    {"bbox_min", {lo.x(), lo.y(), lo.z()}}, {"bbox_max", {hi.x(), hi.y(), hi.z()}},
-                                   {"rigid_sets", p.rigid_sets}, {"quality", quality(fe::summarize(fe::element_quality(placed)))},
+                                   {"rigid_sets", p.rigid_sets}, {"quality", quality(fe::summarize(placed_q))},
+                                   {"quality_goal", quality_goal(placed_q, p.reference_scaled_jacobian, &goal)},
                                    {"rules", rules}});
   }
   report["mesh"] = {{"inp", "part.inp"}, {"msh", "part.msh"}, {"nodes", whole.nodes.rows()}, {"elements", whole.num_elements()},
@@ -428,7 +459,10 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
   report["conformity"] = {{"duplicate_nodes", rep.duplicate_nodes}, {"free_edges", rep.free_edges},
                           {"free_edges_at_patches", rep.free_edges_at_patches},
                           {"border_nodes_not_joined", rep.border_nodes_not_joined}};
-  report["quality"] = {{"patches", quality(fe::summarize(qp))}, {"rest", quality(fe::summarize(qr))}, {"all", quality(fe::summarize(q))}};
+  report["quality"] = {{"patches", quality(fe::summarize(qp))}, {"rest", quality(fe::summarize(qr))}, {"all", quality(fe::summarize(q))},
+                       {"goal", {{"rule", "scaled Jacobian >= 0.3 on every patch element whose reference element has >= 0.5"},
+                                 {"elements_judged", goal.judged}, {"min_scaled_jacobian", num(goal.min_sj)}, {"below_0_3", goal.below},
+                                 {"ok", goal.below == 0}}}};
   report["mesher"] = nlohmann::ordered_json::parse(rep.mesher_report.empty() ? "{}" : rep.mesher_report, nullptr, false);
   report["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (!write_atomically((fs::path(a.output) / "mesh_part.json").string(),

@@ -76,6 +76,18 @@ class MeshPart(unittest.TestCase):
         # the repair leaves no patch element folded over (the transfer leaves one on this plate)
         self.assertEqual(self.whole["quality"]["patches"]["inverted"], 0, self.whole["repair"])
         self.assertEqual(self.whole["repair"]["inverted_after"], 0, self.whole["repair"])
+        # the quality goal, judged against each element's counterpart in the feature's own mesh:
+        # measured per instance and over all; the bosses and four of the five ribs meet it (the second
+        # rib's fit sits 1.4 mm high and its corners stretch down onto the root fillets)
+        goal = self.whole["quality"]["goal"]
+        per = [i["quality_goal"] for i in self.whole["instances"]]
+        self.assertEqual(goal["elements_judged"], sum(g["elements_good_in_reference"] for g in per))
+        self.assertEqual(goal["below_0_3"], sum(g["below_0_3"] for g in per))
+        self.assertGreater(goal["elements_judged"], 0.9 * self.whole["mesh"]["patch_elements"])
+        for inst in self.whole["instances"]:
+            if inst["name"].startswith("SCREW_BOSS"):
+                self.assertTrue(inst["quality_goal"]["ok"], inst["quality_goal"])
+        self.assertGreaterEqual(sum(g["ok"] for g in per), 6, per)
         # every patch node was put onto the part's B-rep but a few
         self.assertGreaterEqual(self.whole["mesh"]["moved_onto_brep"], 0.99 * self.whole["mesh"]["patch_nodes"])
 

@@ -23,6 +23,10 @@ struct PartPatch {
   /// node sets of the feature that carry a rigid bolt connection (feature.json "analysis")
   std::vector<std::string> rigid_sets;
   std::string spec_json;   ///< the specification, mapped onto this instance (transfer_mesh's spec_json)
+  /// scaled Jacobian of each element in the feature's own mesh (same order as mesh's elements; empty:
+  /// unknown): the quality goal is judged against it (an element already poor in the reference is not
+  /// the placement's fault)
+  std::vector<double> reference_scaled_jacobian;
 };
 
 /// "screw boss" -> "SCREW_BOSS": upper case, anything but letters and digits becomes '_', runs of '_'
