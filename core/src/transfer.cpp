@@ -45,9 +45,10 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
 
 namespace {
 
-// The parts of a specification the mesh steps read as numbers ("rules", "axis", "element"), checked
-// once where the file is known, so that a malformed one is a one-line error naming feature.json and
-// not an exception from deep inside `mesh` or `mesh-part`.
+// The parts of a specification the mesh steps read ("rules", "axis", "element", "analysis"), checked
+// once where the file is known (read_feature, which `library check` calls too), so that a malformed
+// one is a one-line error naming feature.json and not an exception from deep inside `mesh` or
+// `mesh-part`; the readers downstream may take these shapes as given.
 void check_spec(const nlohmann::json& j, const std::string& spec_path) {
   auto vec3 = [&](const nlohmann::json& v, const std::string& what) {
     if (!v.is_array() || v.size() != 3 || !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
