@@ -11,7 +11,7 @@ BUILD=${FE_BUILD_DIR:-build}
 PACKAGES=(
   build-essential cmake pkg-config
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
-  libpcl-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
+  libpcl-dev libboost-dev libnanoflann-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
   python3 python3-numpy python3-pytest pybind11-dev python3-pybind11
   freecad xvfb xauth
   clang libclang-rt-14-dev   # libFuzzer and the sanitizers: the fuzzing build (fuzz/, issue 10)

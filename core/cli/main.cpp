@@ -398,6 +398,9 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
                        {"elements", solid.num_elements()}, {"type", a.linear ? "C3D4" : "C3D10"},
                        {"middle_nodes_on_part", on_part}, {"quality", quality(fe::summarize(qs))}};
   }
+  // equations in a profile-reducing order (part_mesh.h); the surface and the solid each their own
+  fe::number_nodes_for_solver(whole);
+  if (a.solid) fe::number_nodes_for_solver(solid);
   try {
     fe::write_inp(whole, (fs::path(a.output) / "part.inp").string());
     fe::write_msh(whole, (fs::path(a.output) / "part.msh").string());

@@ -6,6 +6,8 @@
 
 #include "kdtree.h"
 
+#include <boost/graph/adjacency_list.hpp>
+#include <boost/graph/cuthill_mckee_ordering.hpp>
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Dense>
@@ -777,6 +779,28 @@ std::string check_transition(const FeMesh& whole, std::size_t patch_elements, co
   r["ok"] = !ratios.empty() && r["share_within_1.5"].get<double>() >= 0.9;
   r["text"] = "elements of the rest within the width of the instance's border: mean edge over the size the zone asks there";
   return r.dump();
+}
+
+void number_nodes_for_solver(FeMesh& m) {
+  using Graph = boost::adjacency_list<boost::vecS, boost::vecS, boost::undirectedS,
+                                      boost::property<boost::vertex_color_t, boost::default_color_type, boost::property<boost::vertex_degree_t, int>>>;
+  const int n = static_cast<int>(m.nodes.rows());
+  std::vector<std::pair<int, int>> edges;
+  for (const ElementBlock& b : m.blocks)
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r)
+      for (Eigen::Index i = 0; i < b.conn.cols(); ++i)
+        for (Eigen::Index k = i + 1; k < b.conn.cols(); ++k) {
+          const int u = b.conn(r, i), v = b.conn(r, k);
+          if (u != v) edges.emplace_back(std::min(u, v), std::max(u, v));
+        }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  Graph g(edges.begin(), edges.end(), static_cast<Graph::vertices_size_type>(n));
+  std::vector<Graph::vertex_descriptor> order(static_cast<std::size_t>(n));
+  // every connected component, each from a pseudo-peripheral node; the reverse order
+  boost::cuthill_mckee_ordering(g, order.rbegin(), boost::get(boost::vertex_color, g), boost::make_degree_map(g));
+  m.node_ids.assign(static_cast<std::size_t>(n), 0);
+  for (std::size_t k = 0; k < order.size(); ++k) m.node_ids[order[k]] = static_cast<long>(k) + 1;
 }
 
 void write_ccx_static(const FeMesh& m, const std::string& mesh_file, const StaticAnalysis& a, const std::string& path) {

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -179,4 +181,47 @@ TEST(PartMesh, TheAnalysisDeckHoldsThePartAndLoadsEachBoltThroughARigidBody) {
   EXPECT_NE(deck.find("*BOUNDARY\nFIXED, 1, 6"), std::string::npos);
   EXPECT_NE(deck.find("*CLOAD\n5, 3, -50"), std::string::npos);
   EXPECT_NE(deck.find("*NSET, NSET=PART_NODES, GENERATE\n1, 4, 1"), std::string::npos);
+}
+
+// The solver's numbering: a strip of quads numbered across (ids jump by the strip's length between
+// neighbours) gets ids 1..N again, neighbours close in id (a small profile for the solver), the same
+// every time; an isolated node and a second component are numbered too.
+TEST(PartMesh, NodesAreNumberedForTheSolverInCuthillMcKeeOrder) {
+  const int len = 40;  // 2 x len nodes, len - 1 quads; row r: nodes r and len + r
+  fe::FeMesh m;
+  m.nodes.resize(2 * len + 4, 3);
+  for (int r = 0; r < len; ++r) {
+    m.nodes.row(r) << r, 0, 0;
+    m.nodes.row(len + r) << r, 1, 0;
+  }
+  m.nodes.row(2 * len) << 100, 0, 0;  // isolated
+  m.nodes.bottomRows(3) << 200, 0, 0, 201, 0, 0, 200, 1, 0;  // a triangle of its own
+  fe::ElementBlock q;
+  q.type = fe::ElementType::Quad4;
+  q.conn.resize(len - 1, 4);
+  for (int r = 0; r + 1 < len; ++r) q.conn.row(r) << r, r + 1, len + r + 1, len + r;
+  fe::ElementBlock t;
+  t.type = fe::ElementType::Tri3;
+  t.conn.resize(1, 3);
+  t.conn << 2 * len + 1, 2 * len + 2, 2 * len + 3;
+  m.blocks = {q, t};
+  m.node_sets["END"] = {0, len};
+  auto bandwidth = [&](const std::vector<long>& id) {
+    long w = 0;
+    for (Eigen::Index r = 0; r < q.conn.rows(); ++r)
+      for (int i = 0; i < 4; ++i)
+        for (int k = 0; k < 4; ++k) w = std::max(w, std::abs(id[q.conn(r, i)] - id[q.conn(r, k)]));
+    return w;
+  };
+  for (int i = 0; i < m.nodes.rows(); ++i) m.node_ids.push_back(i + 1);
+  EXPECT_EQ(bandwidth(m.node_ids), len + 1);
+  fe::number_nodes_for_solver(m);
+  std::vector<long> sorted = m.node_ids;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 0; k < sorted.size(); ++k) ASSERT_EQ(sorted[k], static_cast<long>(k) + 1);
+  EXPECT_LE(bandwidth(m.node_ids), 3);
+  EXPECT_EQ(m.node_sets["END"], (std::vector<int>{0, len}));  // sets hold rows, untouched
+  const std::vector<long> first = m.node_ids;
+  fe::number_nodes_for_solver(m);
+  EXPECT_EQ(m.node_ids, first);
 }

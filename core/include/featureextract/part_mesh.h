@@ -128,6 +128,13 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json);
 /// `on_part` receives how many middles were moved onto the part.
 FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part = nullptr);
 
+/// Node ids 1..N in reverse Cuthill-McKee order of the element graph (Boost.Graph), rows and sets
+/// unchanged, deterministic. CalculiX numbers its equations in node id order; SPOOLES's ordering
+/// stopped ("fatal error in GPart_makeYCmap", exit 255) on a shell model of the example plate
+/// numbered patch by patch (with the fits of an experiment), and solved the same mesh in this order
+/// (and in a random one): the failure depends on the numbering, so this lowers its odds, no more.
+void number_nodes_for_solver(FeMesh& m);
+
 /// A linear static analysis for CalculiX: the mesh (*INCLUDE of mesh_file), an isotropic material,
 /// a shell section of the given thickness on each of section_sets (together: every element), the node set `fixed_set` held in all six
 /// degrees of freedom, and per rigid set a reference node at the set's centroid, joined by *RIGID
