@@ -225,7 +225,7 @@ def main():
         report = {"border_curves": len(border), "border_vertices": len(border_vertices),
                   "faces_gmsh_does_not_read": missing,
                   "curves_without_patch_nodes": [], "vertices_without_patch_node": [],
-                  "border_nodes_not_on_an_edge": 0, "border_nodes_on_top_of_another": 0, "short_curves_one_segment": 0,
+                  "border_nodes_not_on_an_edge": 0, "border_nodes_spread": 0, "short_curves_one_segment": 0,
                   "patch_nodes_not_on_a_face": not_on_a_face, "patch_nodes_onto_inner_edges": on_inner_edges}
         plans = []
         tol_of = {}
@@ -345,22 +345,6 @@ def main():
                 if not pts:
                     one_segment(c)
                     continue
-                # one node per key, in order along the curve, none on top of a vertex or of the node
-                # before it (gmsh stops on a zero-length segment)
-                gap = 0.1 * tol_of[c]
-                ends_xyz = [vertex_xyz[v] for v in curve_ends[c]]
-                seen, uniq = set(), []
-                for u, key, cp in pts:
-                    if key in seen:
-                        continue
-                    if any(dist(cp, e) < gap for e in ends_xyz) or (uniq and dist(cp, uniq[-1][2]) < gap):
-                        report["border_nodes_on_top_of_another"] += 1
-                        continue
-                    seen.add(key)
-                    uniq.append((u, key, cp))
-                if not uniq:
-                    one_segment(c)
-                    continue
                 # the line elements run from the vertex at the curve's first parameter to the one at its
                 # last (a closed curve, a circle, has one vertex at both ends)
                 ends = curve_ends[c]
@@ -368,6 +352,37 @@ def main():
                 p_lo = gmsh.model.getValue(1, c, [lo[0]])
                 if len(ends) > 1 and dist(vertex_xyz[ends[0]], p_lo) > dist(vertex_xyz[ends[-1]], p_lo):
                     ends = [ends[-1], ends[0]]
+                # one node per key, in order along the curve, none on top of a vertex or of the node
+                # before it (gmsh stops on a zero-length segment). A node that lands on top of another
+                # (a fit that puts the patch's border a little off the edge folds its nodes together
+                # there) is not dropped, which left a hole: a run of crowded nodes is spread evenly
+                # between its free neighbours along the curve.
+                gap = 0.1 * tol_of[c]
+                ends_xyz = [vertex_xyz[v] for v in curve_ends[c]]
+                seen, uniq = set(), []
+                for u, key, cp in pts:
+                    if key not in seen:
+                        seen.add(key)
+                        uniq.append([u, key, cp])
+                crowded = [any(dist(cp, e) < gap for e in ends_xyz) or (k and dist(cp, uniq[k - 1][2]) < gap)
+                           for k, (u, key, cp) in enumerate(uniq)]
+                k = 0
+                while k < len(uniq):
+                    if not crowded[k]:
+                        k += 1
+                        continue
+                    b = k
+                    while b < len(uniq) and crowded[b]:
+                        b += 1
+                    # between the free neighbours that stay (or the curve's ends), evenly
+                    u_a = uniq[k - 1][0] if k > 0 else lo[0]
+                    u_b = uniq[b][0] if b < len(uniq) else hi[0]
+                    for j in range(k, b):
+                        u = u_a + (u_b - u_a) * (j - k + 1) / (b - k + 1)
+                        uniq[j][0], uniq[j][2] = u, tuple(gmsh.model.getValue(1, c, [u]))
+                    report["border_nodes_spread"] += b - k
+                    k = b
+                uniq = [tuple(x) for x in uniq]
                 v0 = gmsh.model.mesh.getNodes(0, ends[0])[0]
                 v1 = gmsh.model.mesh.getNodes(0, ends[-1])[0]
                 gmsh.model.mesh.clear([(1, c)])

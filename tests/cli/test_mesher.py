@@ -71,6 +71,24 @@ class Mesher(unittest.TestCase):
         # the support: a face of the rest (every side touches the top: the largest one is taken)
         self.assertIn(out["fixed_face"], {tri[0] for tri in out["triangles"]})
 
+    def test_border_nodes_that_land_on_top_of_each_other_are_spread_not_dropped(self):
+        # a fit that puts the patch's border off the edge folds its nodes together there: on the edge
+        # y = 0 the second and third nodes land 0.01 apart (both within the tolerance of the edge)
+        p = self.grid_patch()
+        p["nodes"][1][1:3] = [2.5, 0.0]
+        p["nodes"][2][1:3] = [2.51, 0.3]
+        r, out = self.run_job({"part": self.part, "faces": 6, "size": 2.0, "patches": [p]})
+        self.assertEqual(r.returncode, 0, r.stderr)
+        joined = {t: k for t, k in out["joined"]}
+        self.assertEqual(sorted(joined.values()), sorted(p["border"]))  # none left out: no hole
+        self.assertGreaterEqual(out["report"]["border_nodes_spread"], 1)
+        moved = {k: (x, y, z) for k, x, y, z in out["moved"]}
+        xs = sorted(moved[k][0] for k in (0, 1, 2, 3, 4))
+        self.assertEqual(sorted(moved[k][1] for k in (0, 1, 2, 3, 4)), [0.0] * 5)  # on the edge y = 0, z = 10
+        self.assertGreater(min(b - a for a, b in zip(xs, xs[1:])), 1.0)  # and apart along it, in order
+        used = {v for tri in out["triangles"] for v in tri[1:]}
+        self.assertTrue(set(joined) <= used)
+
     def test_a_plain_job_meshes_every_face(self):
         r, out = self.run_job({"part": self.part, "faces": 6, "size": 2.0, "plain": True,
                                "patches": [dict(self.grid_patch(), rigid={"TOP": [12]})]})
