@@ -334,8 +334,11 @@ def main():
                     continue
                 out = os.path.join(work, f"{name}_{style}_{variant}.json" if a.work else "out.json")
                 t0 = time.monotonic()
-                p = subprocess.run([exe, "extract", "--reference", ref, "--target", tgt, "--output", out, "--quiet", *[x for kv in a.set for x in ("--set", kv)]],
-                                   capture_output=True, text=True, timeout=a.timeout)
+                try:
+                    p = subprocess.run([exe, "extract", "--reference", ref, "--target", tgt, "--output", out, "--quiet", *[x for kv in a.set for x in ("--set", kv)]],
+                                       capture_output=True, text=True, timeout=a.timeout)
+                except subprocess.TimeoutExpired:  # a row that found nothing in time, not the end of the run
+                    p = subprocess.CompletedProcess([], 124, "", f"timed out after {a.timeout:g} s")
                 sec = time.monotonic() - t0
                 row = {"case": name, "style": style, "variant": variant, "split": split(name),
                        "instances": len(instances), "seconds": round(sec, 2)}
