@@ -645,8 +645,14 @@ void write_scaling(const std::string& root) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::cerr << "usage: fe_make_models OUTDIR [--bench] [--suite [--real DATA_DIR]] [--scaling]\n";
+  const char* usage = "usage: fe_make_models OUTDIR [--bench] [--suite [--real DATA_DIR]] [--scaling]\n";
+  if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+    std::cout << usage;
+    return 0;
+  }
+  // an option where the folder belongs (fe_make_models --suite) must not become a folder named "--suite"
+  if (argc < 2 || argv[1][0] == '-') {
+    std::cerr << usage;
     return 2;
   }
   Message::DefaultMessenger()->RemovePrinters(STANDARD_TYPE(Message_PrinterOStream));
