@@ -218,14 +218,17 @@ double HypothesisScorer::cost(const Eigen::Matrix4d& H, double limit) const {
   return sum / static_cast<double>(buf.size());
 }
 
-double HypothesisScorer::screen_cost(const Eigen::Matrix4d& H, double s) const {
+double HypothesisScorer::screen_cost(const Eigen::Matrix4d& H, double s, double limit) const {
+  const double n = static_cast<double>(std::max<std::size_t>(1, screen_rows_.size()));
+  const double sum_limit = limit * n;
   double sum = 0;
   for (const Eigen::Index i : screen_rows_) {
     const double e = point_error(H, i, s, true);
     if (!std::isfinite(e)) return INFINITY;
     sum += std::min(e, normal_penalty_);
+    if (sum > sum_limit && sum / n > limit) return INFINITY;  // terms are >= 0: the mean can only grow
   }
-  return sum / static_cast<double>(std::max<std::size_t>(1, screen_rows_.size()));
+  return sum / n;
 }
 
 double HypothesisScorer::quantile_error(const Eigen::Matrix4d& H) const {

@@ -86,8 +86,9 @@ class HypothesisScorer {
   /// reference units; +inf out of bounds, off the target, or as soon as it cannot come under `limit`.
   double cost(const Eigen::Matrix4d& H, double limit = INFINITY) const;
   /// The truncated mean error over 40 of the evaluation points at scale s, no bounds test (one-pair
-  /// placements, before the refinement brings them within the bounds).
-  double screen_cost(const Eigen::Matrix4d& H, double s) const;
+  /// placements, before the refinement brings them within the bounds); +inf as soon as the mean is
+  /// sure to exceed `limit` (the sum only grows), the exact value otherwise.
+  double screen_cost(const Eigen::Matrix4d& H, double s, double limit = INFINITY) const;
   /// Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile), reference units.
   double quantile_error(const Eigen::Matrix4d& H) const;
   /// RMS distance of the mapped reference (dense subsample) to the target surface, target units.

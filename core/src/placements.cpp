@@ -4,6 +4,9 @@
 #include "featureextract/geometry.h"
 
 #include <algorithm>
+#include <atomic>
+#include <mutex>
+#include <queue>
 #include <utility>
 
 namespace fe {
@@ -17,6 +20,15 @@ Placement one_pair_placement(const std::vector<KeyPointPair>& pairs, const Point
   const std::size_t m = (pairs.size() + stride - 1) / stride;
   std::vector<double> q4(4 * m, INFINITY);
   std::vector<Eigen::Matrix4d> h4(4 * m);
+  // Only the kKeep best keys are scored in full. Once kKeep placements are screened, a screening
+  // whose partial mean already exceeds the kKeep-th best key so far stops: its key would exceed the
+  // final kKeep-th too (the bound only falls), so the kept set, and the result, do not depend on the
+  // threads' order. Most placements are far off and stop after a few points.
+  constexpr std::size_t kKeep = 24;
+  std::mutex mu;
+  std::priority_queue<double> kept;  // the kKeep smallest keys so far (largest on top)
+  std::atomic<double> bound{INFINITY};
+  auto key = [stride](double q, std::size_t k) { return q + 1e-12 * static_cast<double>(k * stride); };
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::size_t k = 0; k < m; ++k) {
     const std::size_t i = k * stride;
@@ -28,13 +40,21 @@ Placement one_pair_placement(const std::vector<KeyPointPair>& pairs, const Point
       Hc.setIdentity();
       Hc.topLeftCorner<3, 3>() = lin;
       Hc.topRightCorner<3, 1>() = tp.row(static_cast<Eigen::Index>(i)).transpose() - lin * rp.row(static_cast<Eigen::Index>(i)).transpose();
-      q4[4 * k + static_cast<std::size_t>(f)] = scorer.screen_cost(Hc, scales[i]);
+      const double q = scorer.screen_cost(Hc, scales[i], bound.load(std::memory_order_relaxed));
+      q4[4 * k + static_cast<std::size_t>(f)] = q;
+      if (std::isfinite(q)) {
+        const double kq = key(q, k);
+        std::lock_guard<std::mutex> lock(mu);
+        if (kept.size() < kKeep) kept.push(kq);
+        else if (kq < kept.top()) { kept.pop(); kept.push(kq); }
+        if (kept.size() == kKeep) bound.store(kept.top(), std::memory_order_relaxed);
+      }
     }
   }
   std::vector<std::pair<double, Eigen::Matrix4d>> screened;
   for (std::size_t k = 0; k < 4 * m; ++k)
-    if (std::isfinite(q4[k])) screened.emplace_back(q4[k] + 1e-12 * static_cast<double>((k / 4) * stride), h4[k]);
-  const std::size_t keep = std::min<std::size_t>(screened.size(), 24);
+    if (std::isfinite(q4[k])) screened.emplace_back(key(q4[k], k / 4), h4[k]);
+  const std::size_t keep = std::min<std::size_t>(screened.size(), kKeep);
   std::partial_sort(screened.begin(), screened.begin() + static_cast<long>(keep), screened.end(),
                     [](const auto& a, const auto& b) { return a.first < b.first; });
   for (std::size_t k = 0; k < keep; ++k) {

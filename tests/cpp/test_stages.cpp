@@ -197,6 +197,44 @@ TEST_F(SelfMatch, OnePairPlacementsFindTheIdentity) {
     EXPECT_LT((fe::apply_transform(pl.H, R().keys.row(i).transpose()) - R().keys.row(i).transpose()).norm(), 0.02 * R().L);
 }
 
+// The screening stops a placement once its mean cannot come under the limit: the exact mean when it
+// can, +inf when it cannot, so the placements kept do not depend on which thread screened first.
+TEST_F(SelfMatch, TheScreeningStopsOnlyWhatCannotComeUnderItsLimit) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  const double L = R().L;
+  const Eigen::Matrix4d H = moved(Eigen::Vector3d(0.02 * L, 0.01 * L, 0.0), 0.05);
+  const double full = scorer.screen_cost(H, 1.0);
+  ASSERT_TRUE(std::isfinite(full));
+  ASSERT_GT(full, 0.0);
+  EXPECT_EQ(scorer.screen_cost(H, 1.0, full), full);
+  EXPECT_EQ(scorer.screen_cost(H, 1.0, 2 * full), full);
+  EXPECT_TRUE(std::isinf(scorer.screen_cost(H, 1.0, 0.99 * full)));
+  EXPECT_TRUE(std::isinf(scorer.screen_cost(H, 1.0, 0.0)));
+}
+
+TEST_F(SelfMatch, OnePairPlacementsAreTheSameOnOneThreadAndOnTwo) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  // pairs of each key point with a neighbour's: most placements are off, a few are right
+  std::vector<fe::KeyPointPair> pairs;
+  for (Eigen::Index i = 0; i < R().keys.rows(); ++i)
+    pairs.push_back({static_cast<int>(i), static_cast<int>(i % 5 == 0 ? i : (i + 3) % R().keys.rows()), 0, 0.f});
+  const std::vector<double> scales(pairs.size(), 1.0);
+  const fe::PairFrames frames{R().shot, T().shot, R().m / 2, T().D};
+  fe::Params one = params, two = params;
+  one.threads = 1;
+  two.threads = 2;
+  fe::set_threads(one);
+  const fe::Placement a = fe::one_pair_placement(pairs, R().keys, T().keys, scales, frames, scorer);
+  fe::set_threads(two);
+  const fe::Placement b = fe::one_pair_placement(pairs, R().keys, T().keys, scales, frames, scorer);
+  fe::set_threads(params);
+  ASSERT_TRUE(std::isfinite(a.cost));
+  EXPECT_EQ(a.cost, b.cost);
+  EXPECT_EQ(a.pair, b.pair);
+  EXPECT_TRUE(a.H == b.H);
+  EXPECT_LT(a.cost, 0.01 * R().L);
+}
+
 TEST_F(SelfMatch, TheRefinementPullsAMovedFitBackOntoTheSurface) {
   const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
   const fe::SurfaceRefinement refinement(R(), T(), params, scorer);
