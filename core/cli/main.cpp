@@ -387,16 +387,45 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       say(std::string("internal error: ") + e.what());
       return 1;
     }
-    std::size_t on_part = 0;
+    std::size_t on_part = 0, on_brep = 0;
+    std::string projection_note;
     if (!a.linear) {
       progress("10-node tetrahedra", 0.0);
-      solid = fe::quadratic_solid(solid, whole, part_surface, &on_part);
+      // the surface middles onto the exact B-rep faces, by the mesher (it holds the B-rep)
+      const fe::FaceProjector onto_faces = [&](fe::Points& pts, const std::vector<int>& faces) {
+        const std::string pjob = (fs::path(a.output) / "mesher_project_job.json").string();
+        const std::string pans = (fs::path(a.output) / "mesher_project_answer.json").string();
+        nlohmann::json j = {{"project", true}, {"part", fs::absolute(a.target).string()}, {"points", nlohmann::json::array()}};
+        for (Eigen::Index i = 0; i < pts.rows(); ++i)
+          j["points"].push_back({pts(i, 0), pts(i, 1), pts(i, 2), faces[static_cast<std::size_t>(i)]});
+        if (!write_atomically(pjob, j.dump())) return;
+        progress("10-node tetrahedra: middles onto the B-rep (gmsh)", 0.0);
+        const int prc = run_program({"/usr/bin/python3", mesher, pjob, pans}, err_path);
+        if (prc != 0) {  // the triangulation's feet stay: a coarser curve, not a failure
+          projection_note = "not onto the B-rep (" + last_line_of(err_path) + "): on the triangulation";
+          return;
+        }
+        std::ifstream pin(pans);
+        const nlohmann::json ans = nlohmann::json::parse(pin, nullptr, false);
+        if (!ans.is_object() || !ans.contains("points") || !ans["points"].is_array() ||
+            ans["points"].size() != static_cast<std::size_t>(pts.rows())) {
+          projection_note = "not onto the B-rep (the mesher's answer does not fit): on the triangulation";
+          return;
+        }
+        for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+          const auto& q = ans["points"][static_cast<std::size_t>(i)];
+          if (q.is_array() && q.size() == 3 && q[0].is_number() && q[1].is_number() && q[2].is_number())
+            pts.row(i) << q[0].get<double>(), q[1].get<double>(), q[2].get<double>();
+        }
+      };
+      solid = fe::quadratic_solid(solid, whole, part_surface, &on_part, part_surface.from_brep() ? onto_faces : fe::FaceProjector{}, &on_brep);
       progress("10-node tetrahedra", 1.0);
     }
     const auto qs = fe::element_quality(solid);
     report["solid"] = {{"inp", "part_solid.inp"}, {"msh", "part_solid.msh"}, {"nodes", solid.nodes.rows()},
                        {"elements", solid.num_elements()}, {"type", a.linear ? "C3D4" : "C3D10"},
-                       {"middle_nodes_on_part", on_part}, {"quality", quality(fe::summarize(qs))}};
+                       {"middle_nodes_on_part", on_part}, {"middle_nodes_onto_brep", on_brep}, {"quality", quality(fe::summarize(qs))}};
+    if (!projection_note.empty()) report["solid"]["middle_nodes_note"] = projection_note;
   }
   // equations in a profile-reducing order (part_mesh.h); the surface and the solid each their own
   fe::number_nodes_for_solver(whole);
@@ -543,7 +572,7 @@ int main(int argc, char** argv) {
   const CLI::Validator finite_non_negative([](std::string& v) {
     const double x = std::strtod(v.c_str(), nullptr);
     return std::isfinite(x) && x >= 0 ? std::string() : "must be a finite number >= 0, got " + v;
-  }, "SECONDS");
+  }, ">= 0");
   me->add_option("--max-projection", max_projection, "largest move of a mapped node onto the target, fraction of the "
                                                      "instance's diagonal (default 0.03)")->check(finite_positive);
   mp->add_option("--feature,-f", feature_dirs, "reference feature folder (repeatable)")->required();
@@ -552,11 +581,11 @@ int main(int argc, char** argv) {
                                       "else 1/50 of the part's diagonal)")->check(finite_positive);
   mp->add_option("--thickness", thickness, "shell thickness of the analysis deck (default 0.2)")->check(finite_positive);
   CLI::Option* solid_flag = mp->add_flag("--solid", solid, "also fill the surface mesh with 10-node tetrahedra (C3D10, part_solid.inp/.msh; their "
-                                 "middle nodes on the part's surface); the analysis deck then uses the solid");
+                                 "middle nodes on the part's B-rep faces); the analysis deck then uses the solid");
   mp->add_flag("--linear", linear, "with --solid: 4-node tetrahedra (C3D4) instead of 10-node ones")->needs(solid_flag);
   mp->add_flag("--plain", plain, "mesh the whole part with gmsh, no feature mesh placed (the same analysis on a mesh "
                                  "without feature rules, for comparison); the features still say where the bolts are");
-  mp->add_option("--force", force, "force on each rigid bolt connection, along -z (default 100)")->check(finite_non_negative);
+  mp->add_option("--force", force, "force on each rigid bolt connection, along -z, in N (default 100)")->check(finite_non_negative);
   for (CLI::App* sub : {ex, me, mp}) {
     sub->add_option("--target,-t", tgt_path, "target part: STEP, IGES, BREP, STL, OBJ or PLY")->required();
     sub->add_option("--config,-c", config_path, "JSON object of parameters (see below)");

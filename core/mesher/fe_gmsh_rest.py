@@ -23,6 +23,10 @@ OUT.json:
      "fixed_face": N, "fixed_nodes": [tag, ...], "fixed_keys": [key, ...],  # suggested support
      "report": {...}}
 
+Two other jobs, for `mesh-part --solid`: {"fill": true, ...} fills the surface with tetrahedra
+(fill() below) and {"project": true, ...} puts the quadratic tetrahedra's surface middle nodes onto
+their B-rep faces (project() below).
+
 The border curves (B-rep edges between a covered and an uncovered face) take the patches' border
 nodes as their 1D mesh, so the surface mesher builds the rest's triangles on exactly those nodes: the
 whole mesh is conforming without merging by distance. Deterministic: one thread, fixed options.
@@ -82,6 +86,66 @@ def dist(a, b):
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
 
 
+def closest_on_face(s, q, curves, curve_boxes):
+    """(point, distance): the closest point of face s to q, or None where gmsh has none. The closest
+    point of a face is inside it or on its boundary curves; gmsh 4.8 can return a wrong local point on
+    a trimmed surface (a boss's root fillet: 1.6 mm round the root circle, so the root nodes failed
+    their ring angles), while a curve's closest point is exact: a boundary point nearer than gmsh's
+    answer replaces it. `curves`: the face's boundary curves, `curve_boxes`: their bounding boxes."""
+    try:
+        cp, _ = gmsh.model.getClosestPoint(2, s, list(q))
+    except Exception:
+        return None
+    d = dist(cp, q)
+    for c in curves:
+        if bbox_distance(curve_boxes[c], q) >= d:
+            continue
+        try:
+            cc, _ = gmsh.model.getClosestPoint(1, c, list(q))
+        except Exception:  # a degenerate edge (a cone's apex) has no curve
+            continue
+        if dist(cc, q) < d:
+            cp, d = cc, dist(cc, q)
+    return cp, d
+
+
+def project(job):
+    """Points onto B-rep faces: {"project": true, "part": PATH, "points": [[x, y, z, face], ...]} ->
+    {"points": [[x, y, z] or null, ...]}: each point's closest point on its face (FaceN, the core's
+    numbering), null where the face is not read or has no closest point."""
+    t0 = time.time()
+    try:
+        part = job["part"]
+        pts = [(float(p[0]), float(p[1]), float(p[2]), int(p[3])) for p in job["points"]]
+    except (KeyError, TypeError, ValueError, IndexError) as e:
+        fail(1, f"{sys.argv[1]}: not a projection job: {e}")
+    start_gmsh()
+    try:
+        try:
+            gmsh.model.occ.importShapes(part)
+            gmsh.model.occ.synchronize()
+        except Exception as e:
+            fail(2, f"{part}: gmsh cannot read it: {e}")
+        surfaces = {t for _, t in gmsh.model.getEntities(2)}
+        curves, curve_boxes, out = {}, {}, []
+        for x, y, z, f in pts:
+            if f not in surfaces:
+                out.append(None)
+                continue
+            if f not in curves:
+                curves[f] = [abs(c) for _, c in gmsh.model.getBoundary([(2, f)], combined=False, oriented=False)]
+                for c in curves[f]:
+                    if c not in curve_boxes:
+                        curve_boxes[c] = gmsh.model.getBoundingBox(1, c)
+            found = closest_on_face(f, (x, y, z), curves[f], curve_boxes)
+            out.append(None if found is None else [float(v) for v in found[0]])
+        with open(sys.argv[2], "w") as fo:
+            json.dump({"points": out, "report": {"points": len(out), "placed": sum(p is not None for p in out),
+                                                 "seconds": round(time.time() - t0, 3)}}, fo)
+    finally:
+        gmsh.finalize()
+
+
 def main():
     global VERBOSE
     VERBOSE = bool(os.environ.get("FE_DEBUG"))
@@ -92,6 +156,8 @@ def main():
             job = json.load(f)
         if isinstance(job, dict) and job.get("fill"):
             return fill(job)
+        if isinstance(job, dict) and job.get("project"):
+            return project(job)
         part, size = job["part"], float(job["size"])
         patches = job["patches"]
     except (OSError, ValueError, KeyError, TypeError) as e:
@@ -144,24 +210,10 @@ def main():
                 for s, b in boxes.items():
                     if bbox_distance(b, q) > tol:
                         continue
-                    try:
-                        cp, _ = gmsh.model.getClosestPoint(2, s, list(q))
-                    except Exception:
+                    found = closest_on_face(s, q, face_curves.get(s, []), curve_boxes)
+                    if found is None:
                         continue
-                    d = dist(cp, q)
-                    # the closest point of a face is inside it or on its boundary curves; gmsh 4.8 can
-                    # return a wrong local point on a trimmed surface (a boss's root fillet: 1.6 mm round
-                    # the root circle, so the root nodes failed their ring angles), while a curve's closest
-                    # point is exact: a boundary point nearer than gmsh's answer replaces it
-                    for c in face_curves.get(s, []):
-                        if bbox_distance(curve_boxes[c], q) >= d:
-                            continue
-                        try:
-                            cc, _ = gmsh.model.getClosestPoint(1, c, list(q))
-                        except Exception:  # a degenerate edge (a cone's apex) has no curve
-                            continue
-                        if dist(cc, q) < d:
-                            cp, d = cc, dist(cc, q)
+                    cp, d = found
                     if best is None or d < best[0]:
                         best = (d, cp, s)
                 if best is not None and best[0] <= tol:

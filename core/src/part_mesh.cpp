@@ -166,15 +166,18 @@ void read_tagged_nodes(const nlohmann::json& rows, Eigen::Index first, FeMesh& m
 class SurfaceFoot {
  public:
   explicit SurfaceFoot(const TriangleMesh& s) : s_(s), tree_(centroids(s)) {}
-  Eigen::Vector3d operator()(const Eigen::Vector3d& q) const {
+  /// The nearest point; its triangle in *triangle (-1 for an empty mesh).
+  Eigen::Vector3d operator()(const Eigen::Vector3d& q, int* triangle = nullptr) const {
     tree_.knn(q, 8, idx_, d2_);
     double best = INFINITY;
     Eigen::Vector3d out = q;
+    if (triangle) *triangle = -1;
     for (const int t : idx_) {
       const Eigen::Vector3d f = closest_point_on_triangle(q, vertex(t, 0), vertex(t, 1), vertex(t, 2));
       if ((f - q).squaredNorm() < best) {
         best = (f - q).squaredNorm();
         out = f;
+        if (triangle) *triangle = t;
       }
     }
     return out;
@@ -512,7 +515,8 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json) {
   return out;
 }
 
-FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part) {
+FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part,
+                       const FaceProjector& onto_faces, std::size_t* on_brep) {
   // surface edges: the surface elements' edges, and the diagonal fill_job cut each quad across
   std::set<std::pair<int, int>> edges;
   auto add = [&](int a, int b) { edges.insert({std::min(a, b), std::max(a, b)}); };
@@ -525,13 +529,46 @@ FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const Triangl
     }
   }
   const auto on_surface = [&](int a, int b) { return edges.count({std::min(a, b), std::max(a, b)}) > 0; };
+  if (on_brep) *on_brep = 0;
   if (part.triangles.rows() == 0) return to_quadratic(solid, on_surface, {}, on_part);
+  // Each surface edge's middle: its foot on the triangulation, then (a B-rep part) on the exact face
+  // of that foot's triangle. Farther than a quarter of the edge: another wall of a thin part, not this
+  // face, and the middle stays straight.
   const SurfaceFoot foot(part);
+  std::map<std::pair<int, int>, Eigen::Vector3d> at;
+  std::vector<std::pair<int, int>> asked;
+  std::vector<int> faces;
+  Points feet(static_cast<Eigen::Index>(edges.size()), 3);
+  for (const auto& [a, b] : edges) {
+    const Eigen::Vector3d mid = 0.5 * (solid.nodes.row(a) + solid.nodes.row(b)).transpose();
+    int t = -1;
+    const Eigen::Vector3d f = foot(mid, &t);
+    if ((f - mid).norm() > 0.25 * (solid.nodes.row(a) - solid.nodes.row(b)).norm()) continue;
+    at[{a, b}] = f;
+    const int face = t >= 0 && t < part.face_ids.size() ? part.face_ids(t) : 0;
+    if (onto_faces && face > 0) {
+      feet.row(static_cast<Eigen::Index>(asked.size())) = f.transpose();
+      asked.push_back({a, b});
+      faces.push_back(face);
+    }
+  }
+  if (!asked.empty()) {
+    feet.conservativeResize(static_cast<Eigen::Index>(asked.size()), 3);
+    Points moved = feet;
+    onto_faces(moved, faces);
+    for (std::size_t i = 0; i < asked.size(); ++i) {
+      const auto [a, b] = asked[i];
+      const Eigen::Vector3d q = moved.row(static_cast<Eigen::Index>(i)).transpose();
+      const Eigen::Vector3d mid = 0.5 * (solid.nodes.row(a) + solid.nodes.row(b)).transpose();
+      const double len = (solid.nodes.row(a) - solid.nodes.row(b)).norm();
+      if (!q.allFinite() || (q - mid).norm() > 0.25 * len) continue;
+      if (on_brep && (q - at[{a, b}]).norm() > 1e-6 * len) ++*on_brep;  // not a rounding move on a plane
+      at[{a, b}] = q;
+    }
+  }
   const auto place = [&](int a, int b, const Eigen::Vector3d& mid) -> Eigen::Vector3d {
-    if (!on_surface(a, b)) return mid;
-    const Eigen::Vector3d f = foot(mid);
-    const double len = (solid.nodes.row(a) - solid.nodes.row(b)).norm();
-    return (f - mid).norm() <= 0.25 * len ? f : mid;  // farther: another wall of a thin part, not this face
+    const auto it = at.find({std::min(a, b), std::max(a, b)});
+    return it == at.end() ? mid : it->second;
   };
   return to_quadratic(solid, on_surface, place, on_part);
 }

@@ -8,6 +8,7 @@
 #include "featureextract/femesh.h"
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -126,7 +127,15 @@ FeMesh solid_from_fill(const FeMesh& surface, const std::string& fill_json);
 /// the bolt sets), and their middles go onto the part's surface `part` (its triangulation, nearest
 /// point) unless that is farther than a quarter of the edge (another wall) or folds a tetrahedron.
 /// `on_part` receives how many middles were moved onto the part.
-FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part = nullptr);
+///
+/// With `onto_faces` (a part read from a B-rep), each middle's foot on the triangulation is then moved
+/// onto the exact B-rep face of its triangle: onto_faces(points, faces) moves points.row(i) onto
+/// FaceN faces[i] and leaves a row it cannot place as it is (mesh-part asks the mesher, which holds
+/// the B-rep). The same quarter-edge and fold rules apply. `on_brep` receives how many middles the
+/// projection moved (a triangulation's chord sags up to its deflection; the B-rep does not).
+using FaceProjector = std::function<void(Points& points, const std::vector<int>& faces)>;
+FeMesh quadratic_solid(const FeMesh& solid, const FeMesh& surface, const TriangleMesh& part, std::size_t* on_part = nullptr,
+                       const FaceProjector& onto_faces = {}, std::size_t* on_brep = nullptr);
 
 /// Node ids 1..N in reverse Cuthill-McKee order of the element graph (Boost.Graph), rows and sets
 /// unchanged, deterministic. CalculiX numbers its equations in node id order; SPOOLES's ordering
