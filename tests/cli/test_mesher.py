@@ -98,6 +98,33 @@ class Mesher(unittest.TestCase):
         self.assertEqual(out["rigid_faces"], {"TOP": self.top})
         self.assertGreater(len(out["rigid_nodes"]["TOP"]), 9)
 
+    def test_a_projection_job_puts_points_onto_their_b_rep_face(self):
+        # the 10-node tetrahedra's surface middles: from the triangulation's chord onto the exact face
+        cyl = os.path.join(self.dir, "cylinder.brep")
+        code = f"""
+import gmsh
+gmsh.initialize(); gmsh.option.setNumber("General.Terminal", 0)
+gmsh.model.occ.addCylinder(0, 0, 0, 0, 0, 10, 5); gmsh.model.occ.synchronize()
+side = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.getType(2, t) == "Cylinder"]
+gmsh.write({cyl!r}); print(side[0]); gmsh.finalize()
+"""
+        side = int(subprocess.run(["/usr/bin/python3", "-c", code], capture_output=True, text=True, check=True).stdout)
+        import math
+        pts = [[4.95 * math.cos(a), 4.95 * math.sin(a), 1 + a, side] for a in (0.3, 1.7, 4.0)]  # inside the chord
+        r, out = self.run_job({"project": True, "part": cyl, "points": pts + [[5, 0, 5, 999]]})
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(len(out["points"]), 4)
+        for p, q in zip(pts, out["points"]):
+            self.assertAlmostEqual(math.hypot(q[0], q[1]), 5.0, places=7)
+            self.assertAlmostEqual(math.atan2(q[1], q[0]), math.atan2(p[1], p[0]), places=7)
+            self.assertAlmostEqual(q[2], p[2], places=7)
+        self.assertIsNone(out["points"][3])  # no such face: left to the caller
+        self.assertEqual(out["report"]["placed"], 3)
+        r, _ = self.run_job({"project": True, "part": cyl, "points": [[1, 2]]})
+        self.assertEqual(r.returncode, 1)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("not a projection job", r.stderr)
+
     def test_bad_jobs_are_one_line(self):
         cases = [({"faces": 6, "size": 2.0, "patches": []}, 1, "not a mesh job"),
                  ({"part": self.part, "faces": 6, "size": -1, "patches": []}, 1, "size must be > 0"),
