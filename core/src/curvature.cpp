@@ -1,8 +1,7 @@
 // Step 2 (paper 3.4) signed curvature and shape index; step 3 (3.5) key point test.
 // PCL's PrincipalCurvaturesEstimation is unsigned (eigenvalues of projected-normal covariance) and
 // cannot tell a cap from a cup, so the curvatures come from our own local quadric fit.
-#include "featureextract/geometry.h"
-#include "kdtree.h"
+#include "curvature.h"
 
 #include <Eigen/Dense>
 #include <cmath>
@@ -20,7 +19,10 @@ void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& u, Eigen::Vector3d
 }  // namespace
 
 Points estimate_normals(const Samples& support, const Samples& query, double radius) {
-  KdTree3 tree(support.points);
+  return estimate_normals(KdTree3(support.points), support, query, radius);
+}
+
+Points estimate_normals(const KdTree3& tree, const Samples& support, const Samples& query, double radius) {
   Points out(query.points.rows(), 3);
 #pragma omp parallel
   {
@@ -54,7 +56,11 @@ Points estimate_normals(const Samples& support, const Samples& query, double rad
 
 Eigen::MatrixX2d principal_curvatures(const Points& support, const Points& support_normals, const Points& query,
                                       const Points& query_normals, double radius) {
-  KdTree3 tree(support);
+  return principal_curvatures(KdTree3(support), support, support_normals, query, query_normals, radius);
+}
+
+Eigen::MatrixX2d principal_curvatures(const KdTree3& tree, const Points& support, const Points& support_normals, const Points& query,
+                                      const Points& query_normals, double radius) {
   Eigen::MatrixX2d out(query.rows(), 2);
 #pragma omp parallel
   {
@@ -123,7 +129,10 @@ bool is_key_shape_index(double si, double band) {
 
 
 Eigen::VectorXd crease_shape_index(const Samples& support, const Samples& query, double radius) {
-  KdTree3 tree(support.points);
+  return crease_shape_index(KdTree3(support.points), support, query, radius);
+}
+
+Eigen::VectorXd crease_shape_index(const KdTree3& tree, const Samples& support, const Samples& query, double radius) {
   Eigen::VectorXd out = Eigen::VectorXd::Constant(query.points.rows(), std::numeric_limits<double>::quiet_NaN());
   const double turn = std::cos(30.0 * M_PI / 180.0), skin = std::cos(150.0 * M_PI / 180.0);
 #pragma omp parallel

@@ -2,6 +2,7 @@
 // coverage.h, merge.h), each on a case whose answer is known: the example rib searched on itself,
 // where the identity is the true transform, and synthetic shapes and instances.
 #include "coverage.h"
+#include "curvature.h"
 #include "description.h"
 #include "featureextract/extract.h"
 #include "featureextract/io.h"
@@ -62,6 +63,25 @@ void box(double a, double b, double c, fe::Points& x, fe::Points& n) {
     x.row(static_cast<Eigen::Index>(i)) = px[i].transpose();
     n.row(static_cast<Eigen::Index>(i)) = pn[i].transpose();
   }
+}
+
+// describe() builds one kd-tree over its dense samples and shares it: the same values as the public
+// functions, which build their own.
+TEST(CurvatureStage, ASharedTreeGivesTheSameValuesAsOneOfItsOwn) {
+  const fe::TriangleMesh mesh = fe::read_shape(models() + "/rib_reference.step");
+  const double L = mesh.diagonal();
+  const fe::Samples dense = fe::sample_surface(mesh, 0.02 * L, 1), sparse = fe::sample_surface(mesh, 0.05 * L, 2);
+  const fe::KdTree3 tree(dense.points);
+  const fe::Points n = fe::estimate_normals(dense, sparse, 0.05 * L);
+  EXPECT_TRUE(fe::estimate_normals(tree, dense, sparse, 0.05 * L) == n);
+  const fe::Points dn = fe::estimate_normals(dense, dense, 0.05 * L);
+  const Eigen::MatrixX2d k = fe::principal_curvatures(dense.points, dn, sparse.points, n, 0.08 * L);
+  const Eigen::MatrixX2d kt = fe::principal_curvatures(tree, dense.points, dn, sparse.points, n, 0.08 * L);
+  ASSERT_EQ(k.rows(), sparse.points.rows());
+  EXPECT_TRUE(((k.array() == kt.array()) || (k.array().isNaN() && kt.array().isNaN())).all());
+  const Eigen::VectorXd c = fe::crease_shape_index(dense, sparse, 0.08 * L), ct = fe::crease_shape_index(tree, dense, sparse, 0.08 * L);
+  EXPECT_TRUE(((c.array() == ct.array()) || (c.array().isNaN() && ct.array().isNaN())).all());
+  EXPECT_GT(c.array().isFinite().count(), 0);  // the rib's edges are creases: something was compared
 }
 
 TEST(SymmetryStage, ACylinderIsAxisymmetricABoxIsNot) {
