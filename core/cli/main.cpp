@@ -400,9 +400,10 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
           j["points"].push_back({pts(i, 0), pts(i, 1), pts(i, 2), faces[static_cast<std::size_t>(i)]});
         if (!write_atomically(pjob, j.dump())) return;
         progress("10-node tetrahedra: middles onto the B-rep (gmsh)", 0.0);
-        const int prc = run_program({"/usr/bin/python3", mesher, pjob, pans}, err_path);
+        const std::string plog = (fs::path(a.output) / "mesher_project.log").string();  // mesher.log stays the rest's
+        const int prc = run_program({"/usr/bin/python3", mesher, pjob, pans}, plog);
         if (prc != 0) {  // the triangulation's feet stay: a coarser curve, not a failure
-          projection_note = "not onto the B-rep (" + last_line_of(err_path) + "): on the triangulation";
+          projection_note = "not onto the B-rep (" + last_line_of(plog) + "): on the triangulation";
           return;
         }
         std::ifstream pin(pans);

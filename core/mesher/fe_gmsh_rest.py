@@ -86,6 +86,11 @@ def dist(a, b):
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
 
 
+def face_boundary(s):
+    """The curves bounding face s (unsigned tags)."""
+    return [abs(c) for _, c in gmsh.model.getBoundary([(2, s)], combined=False, oriented=False)]
+
+
 def closest_on_face(s, q, curves, curve_boxes):
     """(point, distance): the closest point of face s to q, or None where gmsh has none. The closest
     point of a face is inside it or on its boundary curves; gmsh 4.8 can return a wrong local point on
@@ -133,7 +138,7 @@ def project(job):
                 out.append(None)
                 continue
             if f not in curves:
-                curves[f] = [abs(c) for _, c in gmsh.model.getBoundary([(2, f)], combined=False, oriented=False)]
+                curves[f] = face_boundary(f)
                 for c in curves[f]:
                     if c not in curve_boxes:
                         curve_boxes[c] = gmsh.model.getBoundingBox(1, c)
@@ -193,7 +198,7 @@ def main():
             tol = float(p["tolerance"])
             snap = 0.1 * tol / 1.5  # a tenth of the patch's median edge
             mine_faces = set(p["faces"])
-            face_curves = {s: [abs(c) for _, c in gmsh.model.getBoundary([(2, s)], combined=False, oriented=False)]
+            face_curves = {s: face_boundary(s)
                            for s in mine_faces if s in surfaces}
             users = {}
             for s, cs in face_curves.items():
@@ -253,8 +258,8 @@ def main():
         # curves and who is on each side
         curve_faces = {}
         for s in surfaces:
-            for _, c in gmsh.model.getBoundary([(2, s)], combined=False, oriented=False):
-                curve_faces.setdefault(abs(c), set()).add(s)
+            for c in face_boundary(s):
+                curve_faces.setdefault(c, set()).add(s)
         border = {}  # curve -> patch index (a curve between the rest and a patch)
         for c, fs in curve_faces.items():
             owners = {owner[s] for s in fs}
