@@ -354,12 +354,12 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       base += p.mesh.nodes.rows();
     }
     progress("repairing the patches", 0.0);
-    const fe::RepairReport rr = fe::repair_patches(whole, rep.patch_elements, part_surface, locked, 0.2, 20, circles);
+    const fe::RepairReport rr = fe::repair_patches(whole, rep.patch_elements, part_surface, locked, 0.3, 20, circles);
     progress("repairing the patches", 1.0);
     report["repair"] = {{"inverted_before", rr.inverted_before}, {"inverted_after", rr.inverted_after},
                         {"poor_before", rr.poor_before}, {"poor_after", rr.poor_after},
                         {"moved_nodes", rr.moved_nodes}, {"passes", rr.passes},
-                        {"rule", "poor: scaled Jacobian below 0.2, measured against the mean normal of the element's neighbours"}};
+                        {"rule", "poor: scaled Jacobian below 0.3 (the quality goal), the worse of it against the element's own normal and against the mean normal of its neighbours"}};
   }
   const std::vector<fe::ElementQuality> q = fe::element_quality(whole);
   std::vector<fe::ElementQuality> qp(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(rep.patch_elements)),

@@ -617,7 +617,15 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
   std::vector<char> is_locked(static_cast<std::size_t>(m.nodes.rows()), 0);
   for (const int v : locked)
     if (v >= 0 && v < m.nodes.rows()) is_locked[static_cast<std::size_t>(v)] = 1;
-  auto q_all = [&]() { return element_quality(m, &ref); };
+  // per element the worse of its scaled Jacobian against its neighbours' normal (a fold) and against
+  // its own (what the quality goal and the solver see); inverted as judged against the neighbours
+  auto q_all = [&]() {
+    std::vector<ElementQuality> against = element_quality(m, &ref);
+    const std::vector<ElementQuality> own = element_quality(m);
+    for (std::size_t e = 0; e < against.size() && e < own.size(); ++e)
+      against[e].scaled_jacobian = std::min(against[e].scaled_jacobian, own[e].scaled_jacobian);
+    return against;
+  };
   std::vector<ElementQuality> q = q_all();
   auto count_bad = [&](const std::vector<ElementQuality>& qq, std::size_t* inv) {
     std::size_t bad = 0, iv = 0;
@@ -629,7 +637,9 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
     return bad;
   };
   rep.poor_before = count_bad(q, &rep.inverted_before);
-  // the worst scaled Jacobian among a node's elements, with the node at p
+  // the worst scaled Jacobian among a node's elements with the node where it now is, each element
+  // measured both against its neighbours' normal (a fold shows) and against its own (as the quality
+  // goal and the solver see it)
   auto local_worst = [&](int v) {
     double w = INFINITY;
     for (const int e : node_els[static_cast<std::size_t>(v)]) {
@@ -646,9 +656,35 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
       }
       one.blocks.push_back(b1);
       Points r1 = ref.row(e);
-      w = std::min(w, element_quality(one, &r1)[0].scaled_jacobian);
+      w = std::min({w, element_quality(one, &r1)[0].scaled_jacobian, element_quality(one)[0].scaled_jacobian});
     }
     return w;
+  };
+  // how far the node's edges leave the part: the largest distance of an edge's middle from the
+  // surface, over the edge's length. A move may not round off a sharp edge of the part (a node on a
+  // rib's top edge slid onto its side) or cut across a fillet: it must keep this under
+  // max(1 %, 1.25 x what it was).
+  auto sag = [&](int v) {
+    double w = 0;
+    const Eigen::Vector3d p = m.nodes.row(v).transpose();
+    for (const int u : nbr[static_cast<std::size_t>(v)]) {
+      const Eigen::Vector3d mid = 0.5 * (p + m.nodes.row(u).transpose());
+      const double len = (p - m.nodes.row(u).transpose()).norm();
+      if (len > 0) w = std::max(w, (foot(mid) - mid).norm() / len);
+    }
+    return w;
+  };
+  // a trial position onto the part, a node under nodes_on_circles turned back to its angle about the
+  // axis (a surface of revolution about it keeps the point on itself)
+  auto onto = [&](int v, const Eigen::Vector3d& old, const Eigen::Vector3d& p) -> Eigen::Vector3d {
+    Eigen::Vector3d to = foot(p);
+    if (const auto it = axis_of.find(v); it != axis_of.end()) {
+      const NodeAxis& ax = on_circles[static_cast<std::size_t>(it->second)];
+      const Eigen::Vector3d d = ax.direction.normalized();
+      const Eigen::Vector3d r0 = (old - ax.point) - (old - ax.point).dot(d) * d, r1 = (to - ax.point) - (to - ax.point).dot(d) * d;
+      if (r0.norm() > 0 && r1.norm() > 0) to = ax.point + (to - ax.point).dot(d) * d + r1.norm() * r0.normalized();
+    }
+    return to;
   };
   std::set<int> moved;
   for (int pass = 0; pass < passes; ++pass) {
@@ -666,27 +702,52 @@ RepairReport repair_patches(FeMesh& m, std::size_t patch_elements, const Triangl
       const auto& nb = nbr[static_cast<std::size_t>(v)];
       if (nb.empty()) continue;
       Eigen::Vector3d avg = Eigen::Vector3d::Zero();
-      for (const int u : nb) avg += m.nodes.row(u).transpose();
-      avg /= static_cast<double>(nb.size());
+      double edge = 0;
       const Eigen::Vector3d old = m.nodes.row(v).transpose();
-      const double before = local_worst(v);
-      Eigen::Vector3d moved_to = foot(avg);
-      if (const auto it = axis_of.find(v); it != axis_of.end()) {
-        // a node on a circle about the feature's axis keeps its angle: turned back about the axis (a
-        // surface of revolution about it keeps the point on itself)
-        const NodeAxis& ax = on_circles[static_cast<std::size_t>(it->second)];
-        const Eigen::Vector3d d = ax.direction.normalized();
-        const Eigen::Vector3d r0 = (old - ax.point) - (old - ax.point).dot(d) * d, r1 = (moved_to - ax.point) - (moved_to - ax.point).dot(d) * d;
-        if (r0.norm() > 0 && r1.norm() > 0)
-          moved_to = ax.point + (moved_to - ax.point).dot(d) * d + r1.norm() * r0.normalized();
+      for (const int u : nb) {
+        avg += m.nodes.row(u).transpose();
+        edge += (m.nodes.row(u).transpose() - old).norm();
       }
-      m.nodes.row(v) = moved_to.transpose();
-      const double after = local_worst(v);
-      if (after > before) {
+      avg /= static_cast<double>(nb.size());
+      edge /= static_cast<double>(nb.size());
+      const double before = local_worst(v), sag_limit = std::max(0.01, 1.25 * sag(v));
+      Eigen::Vector3d best = old;
+      double best_q = before;
+      auto trial = [&](const Eigen::Vector3d& p) {
+        const Eigen::Vector3d to = onto(v, old, p);
+        m.nodes.row(v) = to.transpose();
+        const double w = local_worst(v);
+        if (w > best_q + 1e-9 && sag(v) <= sag_limit) {
+          best_q = w;
+          best = to;
+          return true;
+        }
+        return false;
+      };
+      // Laplacian steps toward the neighbours' mean, then a pattern search in the tangent plane that
+      // raises the worst element around the node (optimization-based smoothing: it finds a better
+      // place where the mean is itself a poor one, next to a locked border or on a curved face)
+      for (const double t : {1.0, 0.5, 0.25}) trial(old + t * (avg - old));
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
+      for (const int e : node_els[static_cast<std::size_t>(v)]) n += ref.row(e).transpose();
+      if (n.norm() > 0 && edge > 0) {
+        n.normalize();
+        const Eigen::Vector3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+        double h = 0.2 * edge;
+        for (int it = 0; it < 40 && h > 0.005 * edge; ++it) {
+          const Eigen::Vector3d from = best;
+          bool better = false;
+          for (int k = 0; k < 8; ++k) {
+            const double a = k * 0.7853981633974483;
+            better = trial(from + h * (std::cos(a) * e1 + std::sin(a) * e2)) || better;
+          }
+          if (!better) h *= 0.5;
+        }
+      }
+      m.nodes.row(v) = best.transpose();
+      if (best_q > before + 1e-9) {
         moved.insert(v);
         any = true;
-      } else {
-        m.nodes.row(v) = old.transpose();
       }
     }
     q = q_all();

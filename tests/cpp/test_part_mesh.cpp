@@ -225,3 +225,94 @@ TEST(PartMesh, NodesAreNumberedForTheSolverInCuthillMcKeeOrder) {
   fe::number_nodes_for_solver(m);
   EXPECT_EQ(m.node_ids, first);
 }
+
+namespace {
+
+// A strip bent along x = 2: the floor z = 0 for u = x <= 2, the wall x = 2 (z = u - 2) beyond.
+Eigen::Vector3d bent(double u, double y) { return u <= 2 ? Eigen::Vector3d(u, y, 0) : Eigen::Vector3d(2, y, u - 2); }
+
+// The part's surface: the bent strip u in [-1, 5], y in [-1, 5] triangulated at 0.5.
+fe::TriangleMesh bent_surface() {
+  fe::TriangleMesh s;
+  const int n = 13;
+  s.vertices.resize(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) s.vertices.row(i * n + j) = bent(-1 + 0.5 * i, -1 + 0.5 * j).transpose();
+  s.triangles.resize(2 * (n - 1) * (n - 1), 3);
+  int t = 0;
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      s.triangles.row(t++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
+      s.triangles.row(t++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
+    }
+  s.face_ids = Eigen::VectorXi::Zero(t);
+  return s;
+}
+
+// A patch of 4 x 4 unit quads on the bent strip, u and y in [0, 4]; node (i, j) is row 5 i + j.
+fe::FeMesh bent_patch() {
+  fe::FeMesh m;
+  m.nodes.resize(25, 3);
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 5; ++j) m.nodes.row(5 * i + j) = bent(i, j).transpose();
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Quad4;
+  b.conn.resize(16, 4);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) b.conn.row(4 * i + j) << 5 * i + j, 5 * (i + 1) + j, 5 * (i + 1) + j + 1, 5 * i + j + 1;
+  m.blocks.push_back(b);
+  for (int i = 0; i < 25; ++i) m.node_ids.push_back(i + 1);
+  return m;
+}
+
+std::vector<int> border_of_bent_patch() {
+  std::vector<int> out;
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 5; ++j)
+      if (i == 0 || j == 0 || i == 4 || j == 4) out.push_back(5 * i + j);
+  return out;
+}
+
+}  // namespace
+
+TEST(PartMeshRepair, AFoldedNodeGoesBackAndEveryElementMeetsTheGoal) {
+  fe::FeMesh m = bent_patch();
+  const fe::FeMesh before = m;
+  m.nodes.row(5 * 1 + 2) << 1.9, 2.95, 0;  // node (1, 2) pushed over its neighbours: folded and poor quads
+  const fe::RepairReport r = fe::repair_patches(m, 16, bent_surface(), border_of_bent_patch(), 0.3, 20);
+  EXPECT_GT(r.inverted_before, 0u);
+  EXPECT_GT(r.poor_before, 0u);
+  EXPECT_EQ(r.inverted_after, 0u);
+  EXPECT_EQ(r.poor_after, 0u);
+  EXPECT_GE(r.moved_nodes, 1u);
+  for (const auto& q : fe::element_quality(m)) EXPECT_GE(q.scaled_jacobian, 0.3);
+  for (const int v : border_of_bent_patch()) EXPECT_EQ((m.nodes.row(v) - before.nodes.row(v)).norm(), 0.0) << v;  // locked
+  EXPECT_NEAR(m.nodes(7, 2), 0.0, 1e-9);  // on the floor still
+}
+
+TEST(PartMeshRepair, AMoveNeverRoundsOffASharpEdgeOfThePart) {
+  fe::FeMesh m = bent_patch();
+  // the floor node (1, 2) pushed toward the bend and held there (as a border node would be): the quads
+  // around it are poor, and sliding the bend's nodes (2, 1..3) up the wall would raise them, but cut
+  // the part's edge off
+  m.nodes.row(5 * 1 + 2) << 1.85, 2.4, 0;
+  std::vector<int> locked = border_of_bent_patch();
+  locked.push_back(5 * 1 + 2);
+  const fe::RepairReport r = fe::repair_patches(m, 16, bent_surface(), locked, 0.3, 20);
+  EXPECT_GT(r.poor_before, 0u);
+  EXPECT_EQ(r.inverted_after, 0u);
+  for (int j = 1; j <= 3; ++j) {
+    const Eigen::Vector3d p = m.nodes.row(5 * 2 + j).transpose();
+    EXPECT_LT(std::hypot(p.x() - 2, p.z()), 0.03) << "bend node " << j << " at " << p.transpose();
+  }
+}
+
+TEST(PartMeshRepair, WithNothingPoorNothingMoves) {
+  fe::FeMesh m = bent_patch();
+  const fe::FeMesh before = m;
+  const fe::RepairReport r = fe::repair_patches(m, 16, bent_surface(), border_of_bent_patch(), 0.3, 20);
+  EXPECT_EQ(r.poor_before, 0u);
+  EXPECT_EQ(r.moved_nodes, 0u);
+  EXPECT_EQ(r.passes, 0);
+  EXPECT_EQ((m.nodes - before.nodes).norm(), 0.0);
+}

@@ -75,11 +75,15 @@ struct PartMeshReport {
 FeMesh assemble_part_mesh(const std::vector<PartPatch>& patches, const std::string& rest_json, PartMeshReport* report = nullptr);
 
 /// Quality repair of the placed patches (issue 12, item 2): nodes of patch elements whose scaled
-/// Jacobian (against the mean normal of its neighbours) is below min_scaled_jacobian, other than `locked`
-/// ones (border and joined nodes), move to the mean of their neighbours and back onto `surface`
-/// (the part's triangulation), a move kept only if it betters the worst of the node's elements; up
-/// to `passes` rounds. The patch elements are the first patch_elements of m. Nodes in on_circles keep
-/// their angle about their axis (the rule nodes_on_circles holds through the repair).
+/// Jacobian is below min_scaled_jacobian (the worse of it against the element's own normal and
+/// against the mean normal of its neighbours), other than `locked` ones (border and joined nodes),
+/// move on `surface` (the part's triangulation) to where the worst of the node's elements is best:
+/// first toward the mean of their neighbours (the whole way, half, a quarter), then by a pattern
+/// search in the tangent plane. A move is kept only if it betters that worst element and keeps the
+/// node's edges on the part (an edge's middle at most max(1 %, 1.25 x before) of its length off the
+/// surface: no sharp edge of the part is rounded off). Up to `passes` rounds. The patch elements are
+/// the first patch_elements of m. Nodes in on_circles keep their angle about their axis (the rule
+/// nodes_on_circles holds through the repair).
 struct RepairReport {
   std::size_t inverted_before = 0, inverted_after = 0, poor_before = 0, poor_after = 0, moved_nodes = 0;
   int passes = 0;
