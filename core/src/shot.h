@@ -27,10 +27,11 @@ struct ShotSet {
 /// spacing of about radius / kSupportPerRadius (powers of two of the original spacing): SHOT's
 /// histograms are normalized, so what matters is enough points per support sphere, not all of them.
 /// The rule depends only on the radius and the spacing, so reference and target stay comparable.
-/// radius / 7 was measured (docs/benchmarks.md: held-out 1654 -> 1662 found, 145 -> 136 false;
-/// CTC-02's target SHOT 5.9 -> 3.4 s) and held back: its fits of the example plate's ribs make the
-/// whole-part mesh fail mesh_part (2 ribs below the quality goal, ccx exit 255).
-constexpr double kSupportPerRadius = 10.0;
+/// radius / 7 (was / 10): CTC-02's target SHOT 5.9 -> 3.4 s; development 1298 -> 1295 of 1380 found,
+/// 21 -> 20 false; held-out 1654 -> 1662 of 1881, 145 -> 136 false (docs/benchmarks.md). From
+/// radius / 5 RANSAC lost the time again (noisier descriptors, more wrong pairs). It waited for the
+/// whole-part mesh's repair to reach the quality goal on its fits of the example plate's ribs.
+constexpr double kSupportPerRadius = 7.0;
 ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points& support,
                      const Points& support_normals, double support_spacing, const std::vector<double>& radii, int threads,
                      const std::function<bool(std::size_t)>& after_radius);
