@@ -198,6 +198,38 @@ TEST(Topology, WhereAnStlRegionWasClippedIsNotMatched) {
   EXPECT_EQ(groups.size(), 3u);
 }
 
+TEST(Topology, ContextFacesTheClipLeftWholeAreNotMatched) {
+  // 4-4-4-4-8-23: four triangular through slots (two walls meeting at a concave edge). Clipped out of
+  // the STL with a box 20 % larger than the first, the region also holds two faces of the stock the
+  // box left whole: the top beside the slot and a step's face. They meet the slot's walls at convex
+  // edges and the other slots have other faces beside them: matched, they kept two of the four slots
+  // from being found. Only the walls are matched, and each slot's walls are an image.
+  const fe::TriangleMesh m = fe::read_shape(mfcad("4-4-4-4-8-23.step"));
+  const auto truth = instances("4-4-4-4-8-23", "triangular_through_slot");
+  ASSERT_EQ(truth.size(), 4u);
+  const auto box = box_of(m, truth[0], 0.2);
+  const fe::TriangleMesh ref = fe_test::clip_to_box(m, box.first, box.second);
+  const fe::CutFaces cut = fe::detect_cut_faces(ref);
+  ASSERT_TRUE(cut.any_side_cut());
+  fe::RegionGraph rg = fe::region_graph(ref);
+  const Eigen::Vector3d lo = ref.vertices.colwise().minCoeff(), hi = ref.vertices.colwise().maxCoeff();
+  fe::mark_cut(rg, lo, hi, cut.cut_sides, 2e-3 * ref.diagonal());
+  int whole = 0;
+  for (const auto& r : rg.regions) whole += r.cut ? 0 : 1;
+  EXPECT_GE(whole, 4);  // the two walls and the two faces of the stock
+  const fe::RegionGraph tg = fe::region_graph(m);
+  const fe::TopologyMatch tm = fe::topology_hypotheses(rg, tg);
+  EXPECT_EQ(tm.matched.size(), 2u);
+  const std::vector<int> face = region_faces(tg, m);
+  std::set<std::set<int>> images;
+  for (const auto& h : tm.hypotheses) {
+    std::set<int> faces;
+    for (int r : h.image) faces.insert(face[static_cast<std::size_t>(r)]);
+    images.insert(faces);
+  }
+  for (const auto& t : truth) EXPECT_TRUE(images.count(t)) << "slot at face " << *t.begin();
+}
+
 TEST(Topology, ABlindSlotIsNotAThroughSlotThoughItsFacesMatch) {
   // 5-5-5-5-12-23: four through slots and a blind slot. A through slot's three faces (floor, two
   // walls) match the blind slot's floor and side walls too; but where the through slot's floor and
