@@ -105,32 +105,36 @@ TopologyMatch topology_hypotheses(const RegionGraph& ref, const RegionGraph& tgt
   const int nr = static_cast<int>(ref.size());
   if (nr < 2 || tgt.size() < 2) return out;
 
-  // The regions to match: the connected set of uncut regions of largest area. When fewer than two
-  // are uncut (a box that took a passage's walls with the part's top and bottom, which lie where a
-  // box cut would), the cut ones too: their cut border then counts as open border.
-  // A reference with cut regions (a box cut, a clipped STL) also holds context faces that the cut
-  // left whole (the stock's top beside a slot); a machined feature's own faces meet each other at
-  // concave edges and the stock at convex ones, so the regions first tried are the largest set of
-  // uncut regions joined by concave contacts, when it has two or more.
+  // The regions to match: the connected set of uncut regions of largest area. A reference with cut
+  // regions (a box cut, a clipped STL) also holds context faces that the cut left whole (the stock's
+  // top beside a slot); a machined feature's own faces meet each other at concave edges and the stock
+  // at convex ones, so there the largest set of two or more uncut regions joined by concave contacts
+  // is tried first. When fewer than two are uncut (a box that took a passage's walls with the part's
+  // top and bottom, which lie where a box cut would), the cut ones too: their cut border then counts
+  // as open border.
   bool use_cut = false;
   bool concave_only = false;
   for (int r = 0; r < nr; ++r) concave_only = concave_only || ref.regions[static_cast<std::size_t>(r)].cut;
   std::vector<int> comp(static_cast<std::size_t>(nr), -1);
   std::vector<double> comp_area;
+  std::vector<int> comp_size;
   auto components = [&] {
     comp.assign(static_cast<std::size_t>(nr), -1);
     comp_area.clear();
+    comp_size.clear();
     auto allowed = [&](int r) { return use_cut || !ref.regions[static_cast<std::size_t>(r)].cut; };
     for (int r = 0; r < nr; ++r) {
       if (!allowed(r) || comp[static_cast<std::size_t>(r)] >= 0) continue;
       const int id = static_cast<int>(comp_area.size());
       comp_area.push_back(0);
+      comp_size.push_back(0);
       std::vector<int> stack{r};
       comp[static_cast<std::size_t>(r)] = id;
       while (!stack.empty()) {
         const int x = stack.back();
         stack.pop_back();
         comp_area[static_cast<std::size_t>(id)] += ref.regions[static_cast<std::size_t>(x)].area;
+        ++comp_size[static_cast<std::size_t>(id)];
         for (const auto& c : ref.contacts[static_cast<std::size_t>(x)])
           if (allowed(c.other) && comp[static_cast<std::size_t>(c.other)] < 0 && (!concave_only || c.angle <= -kSharp)) {
             comp[static_cast<std::size_t>(c.other)] = id;
@@ -141,9 +145,9 @@ TopologyMatch topology_hypotheses(const RegionGraph& ref, const RegionGraph& tgt
     if (comp_area.empty()) return 0;
     if (concave_only)  // a lone region is no set of feature faces here
       for (std::size_t k = 0; k < comp_area.size(); ++k)
-        if (std::count(comp.begin(), comp.end(), static_cast<int>(k)) < 2) comp_area[k] = 0;
+        if (comp_size[k] < 2) comp_area[k] = 0;
     const int best = static_cast<int>(std::max_element(comp_area.begin(), comp_area.end()) - comp_area.begin());
-    return static_cast<int>(std::count(comp.begin(), comp.end(), best)) > 1 ? best + 1 : 0;
+    return comp_size[static_cast<std::size_t>(best)] > 1 ? best + 1 : 0;
   };
   int best = components();
   if (best == 0 && concave_only) {

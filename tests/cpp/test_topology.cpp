@@ -81,6 +81,19 @@ std::pair<Eigen::Vector3d, Eigen::Vector3d> box_of(const fe::TriangleMesh& m, co
   return {lo.array() - g, hi.array() + g};
 }
 
+// The regions of the part's triangles in a box 20 % larger than an instance (an STL region, as
+// bench/user_cases.py clips it), those reaching where the box cut marked cut.
+fe::RegionGraph clipped_regions(const fe::TriangleMesh& m, const std::set<int>& faces) {
+  const auto box = box_of(m, faces, 0.2);
+  const fe::TriangleMesh ref = fe_test::clip_to_box(m, box.first, box.second);
+  const fe::CutFaces cut = fe::detect_cut_faces(ref);
+  EXPECT_TRUE(cut.any_side_cut());
+  fe::RegionGraph rg = fe::region_graph(ref);
+  const Eigen::Vector3d lo = ref.vertices.colwise().minCoeff(), hi = ref.vertices.colwise().maxCoeff();
+  fe::mark_cut(rg, lo, hi, cut.cut_sides, 2e-3 * ref.diagonal());
+  return rg;
+}
+
 // How many of `truth` some match covers (by its faces: at least half of the instance's), and how
 // many matches cover none.
 std::pair<int, int> score(const fe::Result& r, const std::vector<std::set<int>>& truth) {
@@ -181,13 +194,7 @@ TEST(Topology, WhereAnStlRegionWasClippedIsNotMatched) {
   // faces and the slot above reach the box's sides and are context; the four walls are matched.
   const fe::TriangleMesh m = fe::read_shape(mfcad("2-2-2-19.step"));
   const auto truth = instances("2-2-2-19", "rectangular_passage");
-  const auto box = box_of(m, truth[0], 0.2);
-  const fe::TriangleMesh ref = fe_test::clip_to_box(m, box.first, box.second);
-  const fe::CutFaces cut = fe::detect_cut_faces(ref);
-  ASSERT_TRUE(cut.any_side_cut());
-  fe::RegionGraph rg = fe::region_graph(ref);
-  const Eigen::Vector3d lo = ref.vertices.colwise().minCoeff(), hi = ref.vertices.colwise().maxCoeff();
-  fe::mark_cut(rg, lo, hi, cut.cut_sides, 2e-3 * ref.diagonal());
+  const fe::RegionGraph rg = clipped_regions(m, truth[0]);
   int cut_regions = 0;
   for (const auto& r : rg.regions) cut_regions += r.cut ? 1 : 0;
   EXPECT_GE(cut_regions, 2);
@@ -207,13 +214,7 @@ TEST(Topology, ContextFacesTheClipLeftWholeAreNotMatched) {
   const fe::TriangleMesh m = fe::read_shape(mfcad("4-4-4-4-8-23.step"));
   const auto truth = instances("4-4-4-4-8-23", "triangular_through_slot");
   ASSERT_EQ(truth.size(), 4u);
-  const auto box = box_of(m, truth[0], 0.2);
-  const fe::TriangleMesh ref = fe_test::clip_to_box(m, box.first, box.second);
-  const fe::CutFaces cut = fe::detect_cut_faces(ref);
-  ASSERT_TRUE(cut.any_side_cut());
-  fe::RegionGraph rg = fe::region_graph(ref);
-  const Eigen::Vector3d lo = ref.vertices.colwise().minCoeff(), hi = ref.vertices.colwise().maxCoeff();
-  fe::mark_cut(rg, lo, hi, cut.cut_sides, 2e-3 * ref.diagonal());
+  const fe::RegionGraph rg = clipped_regions(m, truth[0]);
   int whole = 0;
   for (const auto& r : rg.regions) whole += r.cut ? 0 : 1;
   EXPECT_GE(whole, 4);  // the two walls and the two faces of the stock
