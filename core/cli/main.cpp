@@ -283,6 +283,22 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
         p.score = m.score;
         p.reference_scaled_jacobian = reference_sj;
         p.feature = feature.name;
+        // the faces the placed mesh covers, not every face the fit comes near (those the mesher must mesh)
+        const fe::ClaimReport claim = fe::claim_covered_faces(p, tgt);
+        if (!claim.dropped_faces.empty()) {
+          std::ostringstream s;
+          s << p.name << ": face(s)";
+          for (const int f : claim.dropped_faces) s << " " << f;
+          s << " left to the rest (the feature's mesh covers less than half of each";
+          if (claim.removed_elements) s << "; " << claim.removed_elements << " of its elements on them removed";
+          s << ")";
+          fj["faces_left_to_the_rest"].push_back(s.str());
+          if (!a.quiet) say("mesh-part: " + s.str());
+        }
+        if (!claim.dropped_faces.empty() && (p.faces.empty() || p.mesh.num_elements() == 0)) {
+          fj["skipped"].push_back(p.name + ": its mesh covers none of the faces it was found on");
+          continue;
+        }
         for (const auto& r : rigid)
           if (p.mesh.node_sets.count(r)) p.rigid_sets.push_back(p.name + "_" + r);
         patches.push_back(std::move(p));

@@ -250,6 +250,167 @@ std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches) {
   return lines;
 }
 
+void keep_elements(FeMesh& m, const std::vector<char>& keep) {
+  std::vector<int> new_element(keep.size(), -1);
+  std::vector<char> used(static_cast<std::size_t>(m.nodes.rows()), 0);
+  int e = 0, kept = 0;
+  for (ElementBlock& b : m.blocks) {
+    const int n = nodes_per_element(b.type);
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r, ++e)
+      if (static_cast<std::size_t>(e) < keep.size() && keep[static_cast<std::size_t>(e)]) {
+        rows.push_back(r);
+        new_element[static_cast<std::size_t>(e)] = kept++;
+        for (int k = 0; k < n; ++k) used[static_cast<std::size_t>(b.conn(r, k))] = 1;
+      }
+    decltype(b.conn) conn(static_cast<Eigen::Index>(rows.size()), n);
+    std::vector<long> ids;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      conn.row(static_cast<Eigen::Index>(i)) = b.conn.row(rows[i]);
+      if (!b.ids.empty()) ids.push_back(b.ids[static_cast<std::size_t>(rows[i])]);
+    }
+    b.conn = std::move(conn);
+    b.ids = std::move(ids);
+  }
+  m.blocks.erase(std::remove_if(m.blocks.begin(), m.blocks.end(), [](const ElementBlock& b) { return b.conn.rows() == 0; }),
+                 m.blocks.end());
+  std::vector<int> new_node(used.size(), -1);
+  int nn = 0;
+  for (std::size_t v = 0; v < used.size(); ++v)
+    if (used[v]) new_node[v] = nn++;
+  Points nodes(nn, 3);
+  std::vector<long> node_ids;
+  for (std::size_t v = 0; v < used.size(); ++v)
+    if (used[v]) {
+      nodes.row(new_node[v]) = m.nodes.row(static_cast<Eigen::Index>(v));
+      if (!m.node_ids.empty()) node_ids.push_back(m.node_ids[v]);
+    }
+  for (ElementBlock& b : m.blocks)
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r)
+      for (Eigen::Index k = 0; k < b.conn.cols(); ++k) b.conn(r, k) = new_node[static_cast<std::size_t>(b.conn(r, k))];
+  m.nodes = std::move(nodes);
+  m.node_ids = std::move(node_ids);
+  auto renumber = [](std::vector<int>& members, const std::vector<int>& to) {
+    std::vector<int> out;
+    for (const int i : members)
+      if (i >= 0 && static_cast<std::size_t>(i) < to.size() && to[static_cast<std::size_t>(i)] >= 0) out.push_back(to[static_cast<std::size_t>(i)]);
+    members = std::move(out);  // the maps keep the order, so sorted stays sorted
+  };
+  for (auto& [name, members] : m.node_sets) renumber(members, new_node);
+  for (auto& [name, members] : m.element_sets) renumber(members, new_element);
+}
+
+namespace {
+
+// Triangles with a bounding sphere each: the exact nearest of them to a point, skipping most (a
+// B-rep's triangles can be long strips, so the nearest centroid says little about the nearest triangle).
+class NearestTriangle {
+ public:
+  void add(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, int tag) {
+    const Eigen::Vector3d m = (a + b + c) / 3;
+    tris_.push_back({a, b, c, m, std::max({(a - m).norm(), (b - m).norm(), (c - m).norm()}), tag});
+  }
+  bool empty() const { return tris_.empty(); }
+  /// The tag of the nearest triangle among those `among` allows (all: null), 0 if none; distance in *dist.
+  int operator()(const Eigen::Vector3d& q, const std::set<int>* among, double* dist) const {
+    double best = INFINITY;
+    int tag = 0;
+    for (const Tri& t : tris_) {
+      if (among && !among->count(t.tag)) continue;
+      const double lower = (q - t.centre).norm() - t.radius;
+      if (lower > 0 && lower * lower >= best) continue;
+      const double d2 = (closest_point_on_triangle(q, t.a, t.b, t.c) - q).squaredNorm();
+      if (d2 < best) best = d2, tag = t.tag;
+    }
+    if (dist) *dist = std::sqrt(best);
+    return tag;
+  }
+
+ private:
+  struct Tri { Eigen::Vector3d a, b, c, centre; double radius; int tag; };
+  std::vector<Tri> tris_;
+};
+
+}  // namespace
+
+ClaimReport claim_covered_faces(PartPatch& p, const TriangleMesh& part, double min_share) {
+  ClaimReport out;
+  if (p.faces.empty() || !part.from_brep() || p.mesh.num_elements() == 0) return out;
+  const double h = median_edge(p.mesh);
+  if (!(h > 0)) return out;
+  // the patch's shell elements as triangles
+  NearestTriangle patch;
+  std::vector<Eigen::Vector3d> centroid;
+  for (const ElementBlock& b : p.mesh.blocks) {
+    const int n = nodes_per_element(b.type);
+    for (Eigen::Index r = 0; r < b.conn.rows(); ++r) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (int k = 0; k < n; ++k) c += p.mesh.nodes.row(b.conn(r, k)).transpose();
+      centroid.push_back(c / n);
+      if (!is_shell(b.type)) continue;
+      for (int k = 1; k + 1 < n; ++k)
+        patch.add(p.mesh.nodes.row(b.conn(r, 0)).transpose(), p.mesh.nodes.row(b.conn(r, k)).transpose(),
+                  p.mesh.nodes.row(b.conn(r, k + 1)).transpose(), 1);
+    }
+  }
+  if (patch.empty()) return out;
+  // each listed face's share under the patch: points of its triangles, about an edge of the patch
+  // apart, within half an edge of the patch's elements (a narrow fillet the elements span counts
+  // whole; a face the patch only borders, the strip along that border)
+  const std::set<int> listed(p.faces.begin(), p.faces.end());
+  std::map<int, double> area, covered;
+  NearestTriangle faces;
+  for (Eigen::Index t = 0; t < part.triangles.rows(); ++t) {
+    const int f = part.face_ids(t);
+    if (!listed.count(f)) continue;
+    const Eigen::Vector3d a = part.vertices.row(part.triangles(t, 0)), b = part.vertices.row(part.triangles(t, 1)),
+                          c = part.vertices.row(part.triangles(t, 2));
+    faces.add(a, b, c, f);
+    const double ar = 0.5 * (b - a).cross(c - a).norm();
+    const int m = std::clamp(static_cast<int>(std::ceil(std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()}) / h)), 1, 24);
+    int near = 0;
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; i + j < m; ++j) {  // the centroids of the m x m sub-triangles pointing up
+        const double u = (i + 1.0 / 3) / m, v = (j + 1.0 / 3) / m;
+        double d;
+        patch(a + u * (b - a) + v * (c - a), nullptr, &d);
+        near += d <= 1.5 * h;
+      }
+    area[f] += ar;
+    covered[f] += ar * near / (m * (m + 1) / 2.0);
+  }
+  std::vector<int> kept;
+  for (const int f : p.faces)
+    if (area[f] > 0 && covered[f] < min_share * area[f]) out.dropped_faces.push_back(f);
+    else kept.push_back(f);
+  if (out.dropped_faces.empty()) return out;
+  p.faces = kept;
+  // an element goes if it lies on a dropped face: its centroid nearest one, and farther than half an
+  // edge from the kept faces; one that only reaches over their edge (a fit a hair off) stays, and the
+  // mesher puts its border nodes onto that edge
+  const std::set<int> dropped(out.dropped_faces.begin(), out.dropped_faces.end()), keep_faces(kept.begin(), kept.end());
+  std::vector<char> keep(centroid.size(), 1);
+  for (std::size_t e = 0; e < centroid.size(); ++e) {
+    if (!dropped.count(faces(centroid[e], nullptr, nullptr))) continue;
+    double d = INFINITY;
+    if (!keep_faces.empty()) faces(centroid[e], &keep_faces, &d);
+    if (d > 0.5 * h) {
+      keep[e] = 0;
+      ++out.removed_elements;
+    }
+  }
+  if (out.removed_elements) {
+    keep_elements(p.mesh, keep);
+    if (p.reference_scaled_jacobian.size() == keep.size()) {
+      std::vector<double> sj;
+      for (std::size_t e = 0; e < keep.size(); ++e)
+        if (keep[e]) sj.push_back(p.reference_scaled_jacobian[e]);
+      p.reference_scaled_jacobian = std::move(sj);
+    }
+  }
+  return out;
+}
+
 std::string part_mesh_job(const std::string& part_path, int part_faces, double size, const std::vector<PartPatch>& patches,
                           bool plain, double tolerance_factor, const std::vector<Eigen::Vector3d>& face_centroids) {
   nlohmann::json j;

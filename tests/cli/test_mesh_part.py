@@ -1,7 +1,7 @@
 """One FE mesh of the whole part, solved by CalculiX (issue 12): `featureextract mesh-part` on the example
 plate (5 ribs, 2 screw bosses) with both shipped features, the real gmsh as the mesher and the real ccx
 as the solver, beside the same analysis on a plain gmsh mesh (bench/mesh_part.py does the running and
-reading). Usage: test_mesh_part.py FEATUREEXTRACT MODELS_DIR"""
+reading); and NIST CTC-02's six lugs (shell, conformity). Usage: test_mesh_part.py FEATUREEXTRACT MODELS_DIR"""
 import json
 import os
 import shutil
@@ -219,6 +219,46 @@ class MeshPart(unittest.TestCase):
         self.assertGreater(rep["mesh"]["rest_elements"], 1.05 * self.whole["mesh"]["rest_elements"])
         self.assertEqual(rep["conformity"]["free_edges"], 0, rep["conformity"])
         self.assertEqual(rep["quality"]["rest"]["inverted"], 0)
+
+
+class MeshPartRealPart(unittest.TestCase):
+    """NIST CTC-02 (../shared/data/real) with a lug feature made from one lug's faces, as the user makes
+    it (tools/make_feature.py; bench/mesh_part.py's ctc02_lugs case), shell mesh of the whole part."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.mkdtemp(prefix="fe_mesh_part_ctc02_")
+        c = mesh_part.cases(os.path.dirname(MODELS))["ctc02_lugs"]
+        if not os.path.exists(c["target"]):
+            raise FileNotFoundError(f"{c['target']}: the NIST part is missing (../shared/data/real beside the checkout)")
+        fdir = os.path.join(cls.dir, "feature")
+        subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "tools", "make_feature.py"), c["target"], fdir]
+                       + c["make_feature"], check=True, capture_output=True)
+        out = os.path.join(cls.dir, "out")
+        p = subprocess.run([EXE, "mesh-part", "--feature", fdir, "--target", c["target"], "--output", out, "--quiet"]
+                           + c["extra"], capture_output=True, text=True, timeout=600)
+        if p.returncode != 0:
+            raise RuntimeError(f"mesh-part failed ({p.returncode}): {p.stderr.strip()}")
+        with open(os.path.join(out, "mesh_part.json")) as f:
+            cls.report = json.load(f)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def test_a_lug_claims_the_faces_its_mesh_covers_not_the_root_fillet_beside_it(self):
+        # the extraction lists the root fillet of four of the six lugs (its mapped reference comes within
+        # reach of half of it), but the lug's mesh only borders it: claimed, nobody meshed it (110 free
+        # edges, 24 border nodes not joined before)
+        r = self.report
+        self.assertEqual(len(r["instances"]), 6)
+        for inst in r["instances"]:
+            self.assertEqual(len(inst["faces"]), 4, inst)  # the feature's four faces, on every lug
+        left = [x for f in r["features"] for x in f.get("faces_left_to_the_rest", [])]
+        self.assertGreaterEqual(len(left), 1)
+        self.assertEqual(r["conformity"]["border_nodes_not_joined"], 0)
+        self.assertLessEqual(r["conformity"]["free_edges_at_patches"], 2)
+        self.assertLessEqual(r["conformity"]["free_edges"], 6)
 
 
 class MeshPartErrors(unittest.TestCase):

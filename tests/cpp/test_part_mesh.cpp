@@ -85,6 +85,117 @@ TEST(PartMesh, BorderNodesAreThoseOfFreeEdges) {
   EXPECT_EQ(fe::border_nodes(m), (std::vector<int>{0, 1, 2, 3, 5, 6, 7, 8}));
 }
 
+namespace {
+
+// A flat part of three faces at z = 0: face 1 [0,2] x [0,2], face 2 [2,10] x [0,2] beside it, face 3
+// [0,2] x [5,6] apart; two triangles each.
+fe::TriangleMesh three_flat_faces() {
+  fe::TriangleMesh t;
+  t.num_faces = 3;
+  t.vertices.resize(12, 3);
+  const double sq[3][4] = {{0, 2, 0, 2}, {2, 10, 0, 2}, {0, 2, 5, 6}};  // x0 x1 y0 y1
+  for (int f = 0; f < 3; ++f) {
+    const auto& r = sq[f];
+    t.vertices.row(4 * f + 0) << r[0], r[2], 0;
+    t.vertices.row(4 * f + 1) << r[1], r[2], 0;
+    t.vertices.row(4 * f + 2) << r[1], r[3], 0;
+    t.vertices.row(4 * f + 3) << r[0], r[3], 0;
+  }
+  t.triangles.resize(6, 3);
+  t.face_ids.resize(6);
+  for (int f = 0; f < 3; ++f) {
+    t.triangles.row(2 * f) << 4 * f, 4 * f + 1, 4 * f + 2;
+    t.triangles.row(2 * f + 1) << 4 * f, 4 * f + 2, 4 * f + 3;
+    t.face_ids(2 * f) = t.face_ids(2 * f + 1) = f + 1;
+  }
+  return t;
+}
+
+// Quads on the grid x in {0, 1, 2, last}, y in {0, 1, 2}: 2 x 2 on face 1, and a column of 2 that
+// spills onto face 2 (within the mesher's reach, 1.5 edges, of under half of it).
+fe::PartPatch spilling_patch(double last) {
+  fe::PartPatch p;
+  p.name = "LUG_1";
+  const double xs[4] = {0, 1, 2, last};
+  p.mesh.nodes.resize(12, 3);
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 4; ++i) p.mesh.nodes.row(4 * j + i) << xs[i], j, 0;
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Quad4;
+  b.conn.resize(6, 4);
+  int r = 0;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 3; ++i) b.conn.row(r++) << 4 * j + i, 4 * j + i + 1, 4 * (j + 1) + i + 1, 4 * (j + 1) + i;
+  b.ids = {1, 2, 3, 4, 5, 6};
+  p.mesh.blocks.push_back(b);
+  p.mesh.element_sets["EDGE"] = {2, 4, 5};         // the last is a spilling element, the middle one is not
+  p.mesh.node_sets["RIGHT"] = {2, 3, 6, 7, 10, 11};  // x = 2 and x = last
+  p.reference_scaled_jacobian = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6};
+  return p;
+}
+
+}  // namespace
+
+TEST(PartMeshClaim, AFaceTheMeshOnlyComesNearIsLeftToTheRestAndTheElementsOnItGo) {
+  fe::PartPatch p = spilling_patch(3.2);  // the spilled column's centroids 0.6 off face 1: on face 2
+  p.faces = {1, 2, 3};
+  const fe::ClaimReport c = fe::claim_covered_faces(p, three_flat_faces());
+  EXPECT_EQ(p.faces, (std::vector<int>{1}));
+  EXPECT_EQ(c.dropped_faces, (std::vector<int>{2, 3}));
+  EXPECT_EQ(c.removed_elements, 2u);
+  ASSERT_EQ(p.mesh.num_elements(), 4u);
+  ASSERT_EQ(p.mesh.nodes.rows(), 9);  // the three nodes at x = 3.2 went
+  EXPECT_LE(p.mesh.nodes.col(0).maxCoeff(), 2.0);
+  EXPECT_EQ(p.reference_scaled_jacobian, (std::vector<double>{0.1, 0.2, 0.4, 0.5}));
+  EXPECT_EQ(p.mesh.element_sets["EDGE"], (std::vector<int>{3}));  // element 4 (0-based) is now the 4th
+  ASSERT_EQ(p.mesh.node_sets["RIGHT"].size(), 3u);
+  for (const int v : p.mesh.node_sets["RIGHT"]) EXPECT_DOUBLE_EQ(p.mesh.nodes(v, 0), 2.0);
+  EXPECT_EQ(p.mesh.blocks[0].ids, (std::vector<long>{1, 2, 4, 5}));
+  // the border now runs along the edge x = 2 between the kept face and the dropped one
+  int on_edge = 0;
+  for (const int v : fe::border_nodes(p.mesh)) on_edge += p.mesh.nodes(v, 0) == 2.0;
+  EXPECT_EQ(on_edge, 3);
+}
+
+TEST(PartMeshClaim, ElementsThatOnlyReachOverTheEdgeOfAKeptFaceStay) {
+  // a fit a hair off: the last column reaches half a unit over face 1's edge (centroids 0.25 off,
+  // under half the median edge): face 2 is still left to the rest, but no element goes (the mesher
+  // puts the border onto the edge)
+  fe::PartPatch p = spilling_patch(2.5);
+  p.faces = {1, 2};
+  const fe::ClaimReport c = fe::claim_covered_faces(p, three_flat_faces());
+  EXPECT_EQ(p.faces, (std::vector<int>{1}));
+  EXPECT_EQ(c.dropped_faces, (std::vector<int>{2}));
+  EXPECT_EQ(c.removed_elements, 0u);
+  EXPECT_EQ(p.mesh.num_elements(), 6u);
+}
+
+TEST(PartMeshClaim, FacesTheMeshCoversStayClaimedAndNothingMoves) {
+  fe::PartPatch p = spilling_patch(2.5);
+  p.faces = {1};
+  const fe::PartPatch before = p;
+  const fe::ClaimReport c = fe::claim_covered_faces(p, three_flat_faces());
+  EXPECT_TRUE(c.dropped_faces.empty());
+  EXPECT_EQ(c.removed_elements, 0u);
+  EXPECT_EQ(p.faces, before.faces);
+  EXPECT_EQ(p.mesh.num_elements(), before.mesh.num_elements());
+  EXPECT_TRUE(p.mesh.nodes.isApprox(before.mesh.nodes));
+}
+
+TEST(PartMeshClaim, AFaceUnderAPatchThatSitsAnEdgeOffStaysClaimed) {
+  // a fit off by a whole edge along the normal (a stretched rib's side wall) still covers its face:
+  // the mesher reaches 1.5 edges
+  fe::PartPatch p = spilling_patch(2.5);
+  p.mesh.nodes.col(2).array() += 1.0;
+  p.faces = {1};
+  const fe::ClaimReport c = fe::claim_covered_faces(p, three_flat_faces());
+  EXPECT_TRUE(c.dropped_faces.empty());
+  EXPECT_EQ(p.faces, (std::vector<int>{1}));
+  // and two edges off, it does not
+  p.mesh.nodes.col(2).array() += 1.0;
+  EXPECT_EQ(fe::claim_covered_faces(p, three_flat_faces()).dropped_faces, (std::vector<int>{1}));
+}
+
 TEST(PartMesh, OfTwoPatchesOnTheSameFacesTheBetterStays) {
   std::vector<fe::PartPatch> ps(3);
   ps[0].name = "RIB_1", ps[0].faces = {1, 2}, ps[0].score = 0.7;

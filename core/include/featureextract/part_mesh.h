@@ -37,6 +37,28 @@ std::string set_name(const std::string& text);
 /// 0-based nodes on the free edges of the mesh's shell elements (edges used by one element), sorted.
 std::vector<int> border_nodes(const FeMesh& m);
 
+/// The faces a placed patch's mesh covers. The extraction lists every face the mapped reference
+/// covers half of, which can be a face the feature's mesh only borders (CTC-02: a lug's root fillet,
+/// beside the top face the mesh lies on), and the mesher leaves every listed face to the patch: such a
+/// face would be meshed by no one. Here a listed face keeps its claim if at least min_share of its
+/// area (points about a median edge h of the patch apart) lies within the mesher's reach of the
+/// patch's elements (1.5 h: the distance within which the mesher puts a patch node onto a face, so a
+/// fit a little off still counts; a face the patch only borders counts its strip along the border).
+/// The others are dropped from p.faces, and the elements lying on them (nearest a dropped face, and
+/// their centroid more than h / 2 from the kept faces) are removed, with the nodes no element uses
+/// any more, p.reference_scaled_jacobian kept in step. An element that only reaches over a kept face's
+/// edge stays: the mesher puts its border nodes onto that edge. A patch without faces (a mesh-only
+/// target) is left as it is.
+struct ClaimReport {
+  std::vector<int> dropped_faces;    ///< 1-based FaceN taken out of the claim
+  std::size_t removed_elements = 0;  ///< patch elements that lay on them
+};
+ClaimReport claim_covered_faces(PartPatch& p, const TriangleMesh& part, double min_share = 0.5);
+
+/// Keeps the elements with keep[e] != 0 (global index, blocks in order) and the nodes they use;
+/// element and node sets are renumbered, and emptied members dropped.
+void keep_elements(FeMesh& m, const std::vector<char>& keep);
+
 /// Removes the patches that share a face with a better-scoring patch (ties: the earlier). Returns one
 /// line per removed patch, naming both.
 std::vector<std::string> resolve_overlaps(std::vector<PartPatch>& patches);
