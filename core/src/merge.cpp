@@ -17,6 +17,15 @@ void sort_matches(std::vector<Match>& m) {
   });
 }
 
+bool same_faces(const Match& a, const Match& b) {
+  if (a.faces.empty() || b.faces.empty()) return false;
+  std::vector<int> x = a.faces, y = b.faces, both;
+  std::sort(x.begin(), x.end());
+  std::sort(y.begin(), y.end());
+  std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
+  return 2 * both.size() > std::max(x.size(), y.size());
+}
+
 std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap) {
   std::stable_sort(found.begin(), found.end(), [](const Instance& a, const Instance& b) { return a.match.score > b.match.score; });
   std::vector<const Instance*> kept;
@@ -26,7 +35,7 @@ std::vector<Match> merge_instances(std::vector<Instance> found, double max_overl
       std::vector<int> both;
       std::set_intersection(f.covered.begin(), f.covered.end(), k->covered.begin(), k->covered.end(), std::back_inserter(both));
       const double denom = static_cast<double>(std::min(f.covered.size(), k->covered.size()));
-      dup = dup || static_cast<double>(both.size()) > max_overlap * denom;
+      dup = dup || static_cast<double>(both.size()) > max_overlap * denom || same_faces(f.match, k->match);
     }
     if (std::getenv("FE_DEBUG"))
       std::fprintf(stderr, "debug: instance at (%.1f %.1f %.1f) score %.3f, %zu samples covered: %s\n", f.match.center.x(), f.match.center.y(),

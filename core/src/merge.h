@@ -13,8 +13,14 @@ namespace fe {
 /// Stable order for the user: by position (x, then y, then z), then score (a strict weak order).
 void sort_matches(std::vector<Match>& m);
 
+/// Two matches list mostly the same target faces: they share more than half of the longer list
+/// (false when either lists none).
+bool same_faces(const Match& a, const Match& b);
+
 /// The instances of one search, each once: of two that share more than max_overlap of the smaller
-/// one's covered samples, the better-scoring one stays (the earlier one on a tie). Sorted.
+/// one's covered samples, or mostly the same faces (same_faces: two fits of a smaller reference
+/// sliding along one longer instance cover different samples of the same faces), the better-scoring
+/// one stays (the earlier one on a tie). Sorted.
 std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap);
 
 /// Two matches are one instance when they share more than max_overlap of the smaller one's faces

@@ -309,6 +309,21 @@ TEST(MergeStage, OverlappingInstancesKeepTheBetterScoreInPositionOrder) {
   EXPECT_EQ(fe::merge_instances({instance(0, 100, 0.9, 5), instance(80, 180, 0.95, 6)}, 0.3).size(), 2u);
 }
 
+TEST(MergeStage, TwoFitsOnMostlyTheSameFacesAreOneInstance) {
+  // two fits of a smaller reference sliding along one longer instance (MFCAD's slanted through step,
+  // the reference 0.7x): different samples, the same face: one instance, the better score
+  fe::Instance a = instance(0, 100, 0.985, 5), b = instance(200, 300, 0.99, 7), c = instance(400, 500, 0.97, 20);
+  a.match.faces = {11};
+  b.match.faces = {11};
+  c.match.faces = {12, 11, 13};  // shares one of three faces: another instance beside it
+  const std::vector<fe::Match> m = fe::merge_instances({a, b, c}, 0.3);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0].score, 0.99);
+  EXPECT_EQ(m[1].score, 0.97);
+  EXPECT_TRUE(fe::same_faces(a.match, b.match));
+  EXPECT_FALSE(fe::same_faces(a.match, c.match));  // 1 shared: not more than half of c's 3
+}
+
 TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
   fe::Params p;
   fe::Result direct;
