@@ -316,22 +316,27 @@ def main():
                 # (gmsh 4.8's getClosestPoint returns no parameter on curves: ask for it)
                 u = gmsh.model.getParametrization(1, c, list(cp))[0]
                 on_curve[c].append((u, key, cp))
-            # the border node nearest to each vertex of these curves becomes the vertex's node
+            # each vertex of these curves takes a border node of its curves as its node, nearest pairs
+            # first, one node per vertex: two vertices a short edge apart (CTC-02's lug corner, 1.8 mm)
+            # once took the same node, and the other vertex's rest node broke the patch's border chain
+            # (three free edges there)
+            pairs = []
             for v in sorted({v for c in mine for v in curve_ends[c]}):
                 vx = vertex_xyz[v]
-                best = None
                 for c in mine:
-                    if v not in curve_ends[c]:
-                        continue
-                    for u, key, cp in on_curve[c]:
-                        d = dist(cp, vx)
-                        if best is None or d < best[0]:
-                            best = (d, key)
-                if best is not None and best[0] <= btol:
-                    vertex_key[v] = best[1]
-                    moved[best[1]] = tuple(vx)
-                else:
-                    report["vertices_without_patch_node"].append(v)
+                    if v in curve_ends[c]:
+                        pairs += [(dist(cp, vx), v, key) for u, key, cp in on_curve[c]]
+            taken = set()
+            for d, v, key in sorted(pairs):
+                if d > btol:
+                    break
+                if v in vertex_key or key in taken:
+                    continue
+                vertex_key[v] = key
+                taken.add(key)
+                moved[key] = tuple(vertex_xyz[v])
+            report["vertices_without_patch_node"] += [v for v in sorted({v for c in mine for v in curve_ends[c]})
+                                                      if v not in vertex_key]
             for c in mine:
                 tol_of[c] = tol
             plans.append((mine, on_curve, vertex_key))

@@ -260,6 +260,15 @@ class MeshPartRealPart(unittest.TestCase):
         self.assertLessEqual(r["conformity"]["free_edges_at_patches"], 2)
         self.assertLessEqual(r["conformity"]["free_edges"], 6)
 
+    def test_the_shell_is_closed_where_two_vertices_a_short_edge_apart_want_the_same_border_node(self):
+        # the first lug's root corner: a 1.8 mm edge between two B-rep vertices, shorter than the lug's
+        # elements, holds one border node; both vertices took it, the other vertex's rest node came
+        # between two patch nodes the patch joins directly, and 3 free edges were left there
+        r = self.report
+        self.assertEqual(r["conformity"]["free_edges"], 0)
+        self.assertEqual(r["conformity"]["free_edges_at_patches"], 0)
+        self.assertEqual(r["mesher"]["vertices_without_patch_node"], [], r["mesher"])
+
 
 class MeshPartErrors(unittest.TestCase):
     def run_cli(self, *args, env=None):
