@@ -12,6 +12,7 @@ JOB.json (written by the core):
          "tolerance": 0.6,                # a node this close to a B-rep vertex / edge / face is put on it
          "nodes": [[key, x, y, z], ...],  # every patch node (key: the core's index)
          "border": [key, ...],            # the patch's border nodes (on its free edges)
+         "border_edges": [[key, key], ...],  # its free edges (optional: the border's chain)
          "transition": {"width": W, "size": s}}]}  # optional: the rest's size grows from s to "size"
                                                    # over W around the patch (its border edges)
 
@@ -316,27 +317,41 @@ def main():
                 # (gmsh 4.8's getClosestPoint returns no parameter on curves: ask for it)
                 u = gmsh.model.getParametrization(1, c, list(cp))[0]
                 on_curve[c].append((u, key, cp))
-            # each vertex of these curves takes a border node of its curves as its node, nearest pairs
-            # first, one node per vertex: two vertices a short edge apart (CTC-02's lug corner, 1.8 mm)
-            # once took the same node, and the other vertex's rest node broke the patch's border chain
-            # (three free edges there)
-            pairs = []
-            for v in sorted({v for c in mine for v in curve_ends[c]}):
-                vx = vertex_xyz[v]
-                for c in mine:
-                    if v in curve_ends[c]:
-                        pairs += [(dist(cp, vx), v, key) for u, key, cp in on_curve[c]]
+            # each vertex of these curves takes a border node of its curves as its node: one node per
+            # vertex, nearest pairs first, and only a node where the patch's border chain leaves the curve
+            # (its neighbour along the chain is on another curve; a curve too short to hold a node is
+            # passed over). Nearest alone, two vertices a short edge apart (CTC-02's lug corner, 1.8 mm)
+            # took the same node, or a vertex took the node after the chain's turn, and the rest's
+            # border ran in another order than the patch's: free edges.
+            curve_of = {key: c for c in mine for _, key, _ in on_curve[c]}
+            chain = {}
+            for a, b in p.get("border_edges") or []:
+                chain.setdefault(int(a), []).append(int(b))
+                chain.setdefault(int(b), []).append(int(a))
+
+            def at_turn(key, c, v):
+                return any(curve_of.get(n) != c for n in chain.get(key, []))
+            corners = sorted({v for c in mine for v in curve_ends[c]})
             taken = set()
-            for d, v, key in sorted(pairs):
-                if d > btol:
-                    break
-                if v in vertex_key or key in taken:
-                    continue
-                vertex_key[v] = key
-                taken.add(key)
-                moved[key] = tuple(vertex_xyz[v])
-            report["vertices_without_patch_node"] += [v for v in sorted({v for c in mine for v in curve_ends[c]})
-                                                      if v not in vertex_key]
+            for strict in (True, False):  # a vertex with no node at a turn takes its nearest free node
+                pairs = []
+                for v in corners:
+                    if v in vertex_key:
+                        continue
+                    vx = vertex_xyz[v]
+                    for c in mine:
+                        if v in curve_ends[c]:
+                            pairs += [(dist(cp, vx), v, key) for u, key, cp in on_curve[c]
+                                      if not strict or at_turn(key, c, v)]
+                for d, v, key in sorted(pairs):
+                    if d > btol:
+                        break
+                    if v in vertex_key or key in taken:
+                        continue
+                    vertex_key[v] = key
+                    taken.add(key)
+                    moved[key] = tuple(vertex_xyz[v])
+            report["vertices_without_patch_node"] += [v for v in corners if v not in vertex_key]
             for c in mine:
                 tol_of[c] = tol
             plans.append((mine, on_curve, vertex_key))

@@ -433,6 +433,9 @@ std::string part_mesh_job(const std::string& part_path, int part_faces, double s
       pj["nodes"].push_back({key + i, p.mesh.nodes(i, 0), p.mesh.nodes(i, 1), p.mesh.nodes(i, 2)});
     pj["border"] = nlohmann::json::array();
     for (const int b : border_nodes(p.mesh)) pj["border"].push_back(key + b);
+    pj["border_edges"] = nlohmann::json::array();  // the border's chain: which border nodes are joined
+    for (const auto& [edge, uses] : shell_edges(p.mesh))
+      if (uses.size() == 1) pj["border_edges"].push_back({key + edge.first, key + edge.second});
     pj["rigid"] = nlohmann::json::object();
     for (const std::string& r : p.rigid_sets) {
       // rigid_sets hold the assembled names (NAME_SET); the patch's own set is SET
