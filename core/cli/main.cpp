@@ -266,7 +266,7 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
       std::vector<double> reference_sj;
       for (const fe::ElementQuality& q : fe::element_quality(feature.mesh)) reference_sj.push_back(q.scaled_jacobian);
       nlohmann::ordered_json fj = {{"folder", a.features[fi]}, {"name", feature.name}, {"found", result.matches.size()}};
-      std::size_t k = 0;
+      std::size_t k = 0, morphed_instances = 0;
       for (const fe::Match& m : result.matches) {
         ++k;
         fe::PartPatch p;
@@ -299,10 +299,28 @@ int mesh_part(const MeshPartArgs& a, fe::Params params, std::chrono::steady_cloc
           fj["skipped"].push_back(p.name + ": its mesh covers none of the faces it was found on");
           continue;
         }
+        // placed again with feet on the claimed faces only (the faces the mesher puts the patch on): a
+        // fit a little past them morphs back inside there, where it would fold onto their edge in the
+        // mesher. Kept where the morph was (CTC-02: lugs 1, 4 and 5); elsewhere the first placement stays
+        if (claim.removed_elements == 0 && tgt.from_brep() && !p.faces.empty()) {
+          fe::TransferOptions on_faces = topt;
+          on_faces.faces = p.faces;
+          std::sort(on_faces.faces.begin(), on_faces.faces.end());
+          try {
+            fe::TransferredMesh t = fe::transfer_mesh(feature.mesh, m.transform, tgt, on_faces, feature.spec_json);
+            if (t.morphed > 0) {
+              p.mesh = std::move(t.mesh);
+              ++morphed_instances;
+            }
+          } catch (const std::exception&) {
+            // the first placement stays
+          }
+        }
         for (const auto& r : rigid)
           if (p.mesh.node_sets.count(r)) p.rigid_sets.push_back(p.name + "_" + r);
         patches.push_back(std::move(p));
       }
+      fj["morphed_onto_faces"] = morphed_instances;  // instances whose border was past their faces, morphed back
       report["features"].push_back(fj);
     }
   } catch (const fe::InputError& e) {

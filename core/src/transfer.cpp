@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace fe {
@@ -197,7 +198,9 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
 
   // Target triangles near the mapped mesh.
   std::vector<Eigen::Index> region;
+  const bool by_face = !o.faces.empty() && target.face_ids.size() == target.triangles.rows();
   for (Eigen::Index t = 0; t < target.triangles.rows(); ++t) {
+    if (by_face && !std::binary_search(o.faces.begin(), o.faces.end(), target.face_ids(t))) continue;
     Eigen::Vector3d tlo = target.vertices.row(target.triangles(t, 0)), thi = tlo;
     for (int k = 1; k < 3; ++k) {
       tlo = tlo.cwiseMin(target.vertices.row(target.triangles(t, k)).transpose());
@@ -255,6 +258,105 @@ TransferredMesh transfer_mesh(const FeMesh& reference, const Eigen::Matrix4d& H,
       if (m.allFinite() && m.norm() > 0) n1.row(e) = m.normalized();
     }
   out.after = element_quality(out.mesh, &n1);
+  // Morph with the border: a fit a fraction of an element off puts the mesh's outer rows past the
+  // target's face; their foot points stop on the face's edge and rows fold onto it (NIST CTC-02's
+  // mirrored lugs: three rows on the root edge). Where a border node's foot lies along the face (not
+  // along its normal) by more than a tenth of an element, every border node's move onto the target is
+  // spread over the interior as a harmonic displacement (Gauss-Seidel on the element graph), and the
+  // interior is projected again from there. Kept only if fewer elements fall below 0.3 (or as many,
+  // with a better worst one).
+  {
+    std::map<std::pair<int, int>, int> uses;
+    std::vector<std::vector<int>> nb(static_cast<std::size_t>(N));
+    double edge_sum = 0;
+    std::size_t edge_n = 0;
+    for (const ElementBlock& b : reference.blocks) {
+      if (!is_shell(b.type)) continue;
+      const int k = b.type == ElementType::Quad4 ? 4 : 3;
+      for (Eigen::Index r = 0; r < b.conn.rows(); ++r)
+        for (int c = 0; c < k; ++c) {
+          const int a = b.conn(r, c), d = b.conn(r, (c + 1) % k);
+          ++uses[{std::min(a, d), std::max(a, d)}];
+          nb[static_cast<std::size_t>(a)].push_back(d);
+          nb[static_cast<std::size_t>(d)].push_back(a);
+          edge_sum += (mapped.row(a) - mapped.row(d)).norm();
+          ++edge_n;
+        }
+    }
+    std::vector<char> border(static_cast<std::size_t>(N), 0);
+    std::vector<std::vector<int>> chain(static_cast<std::size_t>(N));  // neighbours along the border
+    for (const auto& [ed, n] : uses)
+      if (n == 1) {
+        border[static_cast<std::size_t>(ed.first)] = border[static_cast<std::size_t>(ed.second)] = 1;
+        chain[static_cast<std::size_t>(ed.first)].push_back(ed.second);
+        chain[static_cast<std::size_t>(ed.second)].push_back(ed.first);
+      }
+    const double h = edge_n ? edge_sum / static_cast<double>(edge_n) : 0.0;
+    double overhang = 0;
+    for (Eigen::Index i = 0; i < N; ++i) {
+      if (!border[static_cast<std::size_t>(i)] || !on_surface[static_cast<std::size_t>(i)]) continue;
+      const Eigen::Vector3d d = (out.mesh.nodes.row(i) - mapped.row(i)).transpose(), m = mapped_n.row(i).transpose();
+      overhang = std::max(overhang, (d - d.dot(m) * m).norm());
+    }
+    if (h > 0 && overhang > 0.1 * h) {
+      // the border nodes hold their move, except where two neighbours along the border came within
+      // 0.3 of their spacing (stopped on the same stretch of the face's edge, at a corner): those
+      // follow the interior, and the mesher puts them onto the edge in order
+      std::vector<char> fixed(static_cast<std::size_t>(N), 0);
+      for (Eigen::Index i = 0; i < N; ++i) fixed[static_cast<std::size_t>(i)] = border[static_cast<std::size_t>(i)] && on_surface[static_cast<std::size_t>(i)];
+      for (Eigen::Index i = 0; i < N; ++i)
+        for (const int j : chain[static_cast<std::size_t>(i)])
+          if ((out.mesh.nodes.row(i) - out.mesh.nodes.row(j)).norm() < 0.3 * (mapped.row(i) - mapped.row(j)).norm())
+            fixed[static_cast<std::size_t>(i)] = fixed[static_cast<std::size_t>(j)] = 0;
+      Points u = Points::Zero(N, 3);
+      for (Eigen::Index i = 0; i < N; ++i)
+        if (fixed[static_cast<std::size_t>(i)]) u.row(i) = out.mesh.nodes.row(i) - mapped.row(i);
+      for (int it = 0; it < 2000; ++it) {
+        double change = 0;
+        for (Eigen::Index i = 0; i < N; ++i) {
+          const auto& ns = nb[static_cast<std::size_t>(i)];
+          if (fixed[static_cast<std::size_t>(i)] || ns.empty()) continue;
+          Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+          for (const int v : ns) mean += u.row(v);
+          mean /= static_cast<double>(ns.size());
+          change = std::max(change, (mean - u.row(i)).norm());
+          u.row(i) = mean;
+        }
+        if (change < 1e-4 * h) break;
+      }
+      FeMesh trial = out.mesh;
+      std::vector<char> trial_on = on_surface;
+      std::size_t moved_n = 0;
+      for (Eigen::Index i = 0; i < N; ++i) {
+        if (fixed[static_cast<std::size_t>(i)]) continue;
+        Eigen::Vector3d q;
+        if (foot(mapped.row(i).transpose() + u.row(i).transpose(), mapped_n.row(i).transpose(), q)) {
+          trial.nodes.row(i) = q.transpose();
+          trial_on[static_cast<std::size_t>(i)] = 1;
+          moved_n += (q - out.mesh.nodes.row(i).transpose()).norm() > 1e-9 * h;
+        }
+      }
+      const std::vector<ElementQuality> tq = element_quality(trial, &n1);
+      auto poor = [&](const std::vector<ElementQuality>& qq, double* worst) {
+        std::size_t n = 0;
+        *worst = INFINITY;
+        for (std::size_t e2 = 0; e2 < qq.size(); ++e2) {
+          if (out.before[e2].scaled_jacobian < 0.3) continue;  // poor already in the reference
+          n += qq[e2].scaled_jacobian < 0.3;
+          *worst = std::min(*worst, qq[e2].scaled_jacobian);
+        }
+        return n;
+      };
+      double w0 = 0, w1 = 0;
+      const std::size_t p0 = poor(out.after, &w0), p1 = poor(tq, &w1);
+      if (p1 < p0 || (p1 == p0 && w1 > w0 + 1e-9)) {
+        out.mesh.nodes = trial.nodes;
+        on_surface = trial_on;
+        out.after = tq;
+        out.morphed = moved_n;
+      }
+    }
+  }
   // Untangling: closest-point projection can fold a small element where the target's shape differs
   // from the mapped reference (a fillet of another radius). The nodes of such elements are moved to
   // the mean of their neighbours and projected again, a few rounds; elements valid before only.

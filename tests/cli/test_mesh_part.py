@@ -269,6 +269,16 @@ class MeshPartRealPart(unittest.TestCase):
         self.assertEqual(r["conformity"]["free_edges_at_patches"], 0)
         self.assertEqual(r["mesher"]["vertices_without_patch_node"], [], r["mesher"])
 
+    def test_lugs_fitted_past_their_faces_are_morphed_back_inside(self):
+        # three lugs' fits put the outer rows 2 mm past the root edge (0.8 of an element); projected,
+        # they folded onto it (16 inverted elements, 2 of 6 lugs met the quality goal). Placed on the
+        # claimed faces with the border's move spread over the interior: 4 of 6
+        r = self.report
+        self.assertGreaterEqual(r["features"][0]["morphed_onto_faces"], 2)
+        per = [i["quality_goal"] for i in r["instances"]]
+        self.assertGreaterEqual(sum(g["ok"] for g in per), 4, per)
+        self.assertLessEqual(r["quality"]["goal"]["below_0_3"], 20)
+
 
 class MeshPartErrors(unittest.TestCase):
     def run_cli(self, *args, env=None):

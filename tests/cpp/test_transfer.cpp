@@ -198,3 +198,86 @@ TEST(Transfer, FeatureFolderErrorsNameTheFile) {
     EXPECT_NE(std::string(e.what()).find("feature.json"), std::string::npos);
   }
 }
+
+namespace {
+
+// A 10 x 10 quad grid on [0, 10]^2 (z = 0, normals +z), and a target whose face 1 is that square and
+// whose face 2 slopes up from its edge x = 10 (30 degrees, like a root fillet the instance does not own).
+fe::FeMesh grid_plate() {
+  fe::FeMesh m;
+  m.nodes.resize(121, 3);
+  for (int j = 0; j <= 10; ++j)
+    for (int i = 0; i <= 10; ++i) m.nodes.row(j * 11 + i) << i, j, 0;
+  fe::ElementBlock b;
+  b.type = fe::ElementType::Quad4;
+  b.conn.resize(100, 4);
+  for (int j = 0; j < 10; ++j)
+    for (int i = 0; i < 10; ++i) {
+      const int a = j * 11 + i;
+      b.conn.row(j * 10 + i) << a, a + 1, a + 12, a + 11;
+      b.ids.push_back(j * 10 + i + 1);
+    }
+  m.blocks.push_back(b);
+  for (int v = 0; v < 121; ++v) m.node_ids.push_back(v + 1);
+  return m;
+}
+
+fe::TriangleMesh plate_and_slope() {
+  fe::TriangleMesh t;
+  const double s = std::tan(30.0 * 3.14159265358979 / 180.0);
+  t.vertices.resize(6, 3);
+  t.vertices << 0, 0, 0, 10, 0, 0, 10, 10, 0, 0, 10, 0, 15, 0, 5 * s, 15, 10, 5 * s;
+  t.triangles.resize(4, 3);
+  t.triangles << 0, 1, 2, 0, 2, 3, 1, 4, 5, 1, 5, 2;
+  t.face_ids.resize(4);
+  t.face_ids << 1, 1, 2, 2;
+  t.num_faces = 2;
+  return t;
+}
+
+}  // namespace
+
+TEST(Transfer, AFitPastTheFaceMorphsBackInsideInsteadOfFoldingOntoItsEdge) {
+  // the fit puts the mesh 1.5 elements past face 1's edge; with feet on face 1 only (mesh-part's
+  // claimed faces) the outer columns stop on the edge: folded onto it, unless the border's move is
+  // spread over the interior (NIST CTC-02's mirrored lugs, three rows on the root edge)
+  const fe::FeMesh ref = grid_plate();
+  const fe::TriangleMesh target = plate_and_slope();
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H(0, 3) = 1.5;
+  fe::TransferOptions o;
+  o.max_projection = 0.2;  // reach 2.8: every node finds a foot
+  o.faces = {1};
+  const fe::TransferredMesh t = fe::transfer_mesh(ref, H, target, o);
+  EXPECT_EQ(t.unprojected, 0u);
+  EXPECT_GT(t.morphed, 50u);
+  for (Eigen::Index i = 0; i < t.mesh.nodes.rows(); ++i) {
+    ASSERT_LE(t.mesh.nodes(i, 0), 10 + 1e-9) << "node " << i << " past face 1";
+    ASSERT_NEAR(t.mesh.nodes(i, 2), 0.0, 1e-9);
+  }
+  double worst = INFINITY;
+  for (const fe::ElementQuality& q : t.after) worst = std::min(worst, q.scaled_jacobian);
+  EXPECT_GT(worst, 0.8) << "columns folded onto the edge";
+  // feet on any face: the outer columns go up the slope (what a lug's root fillet did)
+  o.faces.clear();
+  const fe::TransferredMesh any = fe::transfer_mesh(ref, H, target, o);
+  Eigen::Index on_slope = 0;
+  for (Eigen::Index i = 0; i < any.mesh.nodes.rows(); ++i) on_slope += any.mesh.nodes(i, 2) > 0.1;
+  EXPECT_GT(on_slope, 10);
+}
+
+TEST(Transfer, AFitInsideTheFacesIsNotMorphed) {
+  const fe::FeMesh ref = grid_plate();
+  fe::TriangleMesh target = plate_and_slope();
+  target.vertices.col(0) *= 2.0;  // face 1 is [0, 20] x [0, 10]: the fit lies inside it
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H(0, 3) = 1.5;
+  H(2, 3) = 0.05;
+  fe::TransferOptions o;
+  o.max_projection = 0.2;
+  o.faces = {1};
+  const fe::TransferredMesh t = fe::transfer_mesh(ref, H, target, o);
+  EXPECT_EQ(t.morphed, 0u);
+  for (Eigen::Index i = 0; i < t.mesh.nodes.rows(); ++i)
+    ASSERT_NEAR(t.mesh.nodes(i, 0), ref.nodes(i, 0) + 1.5, 1e-9);
+}

@@ -33,6 +33,11 @@ struct TransferOptions {
   /// node's mapped normal (so a node on a rib's flank does not jump to the opposite flank or the
   /// plate); if no triangle agrees, the nearest one within reach is used.
   double normal_agreement = 0.3;
+  /// Only feet on the target's triangles of these B-rep faces (FaceN, sorted); empty: any triangle.
+  /// mesh-part gives the faces an instance claims, the ones the rest's mesher puts its nodes on: a node
+  /// past them then stops on their edge and the border morph pulls the mesh back inside, where a foot on
+  /// a neighbouring face (a lug's root fillet) would fold the outer rows onto that edge later.
+  std::vector<int> faces;
 };
 
 struct TransferredMesh {
@@ -43,6 +48,8 @@ struct TransferredMesh {
   std::size_t projected = 0, unprojected = 0;
   double max_projection_distance = 0;  ///< largest move of a node from H's position onto the surface
   double max_surface_distance = 0;     ///< largest distance of a final node from the target triangles
+  std::size_t morphed = 0;             ///< interior nodes moved with the border (a border past the target's
+                                       ///< faces spread over the interior; 0 when none was, or it did not help)
   std::vector<long> invalid_elements;  ///< external ids of elements valid before and inverted after
   bool reversed = false;               ///< H is a reflection (a mirrored instance): element node order was
                                        ///< reversed so that shell normals stay outward
