@@ -88,16 +88,6 @@ void measure(Fit& f) {
   f.anisotropy = sv(2) > 0 ? sv(0) / sv(2) : INFINITY;
 }
 
-// Is fit x better than y? Lower residual (beyond a small tolerance), then a proper map, then less
-// anisotropy: the corners of a through slot fit its reflection along the slot equally well.
-bool better(const Fit& x, const Fit& y, double tol) {
-  if (!std::isfinite(y.rms)) return std::isfinite(x.rms);
-  if (x.rms < y.rms - tol) return true;
-  if (y.rms < x.rms - tol) return false;
-  if ((x.det > 0) != (y.det > 0)) return x.det > 0;
-  return x.anisotropy < y.anisotropy;
-}
-
 }  // namespace
 
 TopologyMatch topology_hypotheses(const RegionGraph& ref, const RegionGraph& tgt, const TopologyOptions& o) {
