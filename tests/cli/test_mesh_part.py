@@ -3,6 +3,7 @@ plate (5 ribs, 2 screw bosses) with both shipped features, the real gmsh as the 
 as the solver, beside the same analysis on a plain gmsh mesh (bench/mesh_part.py does the running and
 reading); and NIST CTC-02's six lugs (shell, conformity). Usage: test_mesh_part.py FEATUREEXTRACT MODELS_DIR"""
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -241,10 +242,34 @@ class MeshPartRealPart(unittest.TestCase):
             raise RuntimeError(f"mesh-part failed ({p.returncode}): {p.stderr.strip()}")
         with open(os.path.join(out, "mesh_part.json")) as f:
             cls.report = json.load(f)
+        cls.target, cls.feature = c["target"], fdir
 
     @classmethod
     def tearDownClass(cls):
         shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def test_a_nearly_symmetric_lug_is_found_with_its_root_toward_the_wall(self):
+        # the lug is a disc cut by the wall 26 mm from its bolt hole: its top face and cylinders are all
+        # about the hole's axis, and only the short root edge fixes the turn. The reference counts as
+        # axisymmetric, and the least twisted spin alone turned the three mirrored lugs -65, +66 and
+        # +113 degrees (their meshes then folded along the root edge): the spin is now searched
+        res = os.path.join(self.dir, "extract.json")
+        subprocess.run([EXE, "extract", "--reference", os.path.join(self.feature, "geometry.brep"), "--target", self.target,
+                        "--output", res, "--quiet"], check=True, capture_output=True, timeout=600)
+        with open(res) as f:
+            r = json.load(f)
+        self.assertEqual(r["symmetry"]["kind"], "axisymmetric")
+        self.assertEqual(len(r["matches"]), 6)
+        for m in r["matches"]:
+            H = m["transform"]
+
+            def apply(p):
+                q = [sum(H[i][k] * (list(p) + [1.0])[k] for k in range(4)) for i in range(4)]
+                return [q[i] / q[3] for i in range(3)]
+            axis, root = apply((-302, 302, -41)), apply((-328.06, 302, -41))  # the reference lug's hole axis, its root edge
+            wall = -1 if axis[0] < 0 else 1  # the wall is on the outer side: x = -328.06 or +328.06
+            angle = math.degrees(math.atan2(root[1] - axis[1], (root[0] - axis[0]) * wall))
+            self.assertLess(abs(angle), 25, (m["faces"], angle))
 
     def test_a_lug_claims_the_faces_its_mesh_covers_not_the_root_fillet_beside_it(self):
         # the extraction lists the root fillet of four of the six lugs (its mapped reference comes within
@@ -270,14 +295,15 @@ class MeshPartRealPart(unittest.TestCase):
         self.assertEqual(r["mesher"]["vertices_without_patch_node"], [], r["mesher"])
 
     def test_lugs_fitted_past_their_faces_are_morphed_back_inside(self):
-        # three lugs' fits put the outer rows 2 mm past the root edge (0.8 of an element); projected,
-        # they folded onto it (16 inverted elements, 2 of 6 lugs met the quality goal). Placed on the
-        # claimed faces with the border's move spread over the interior: 4 of 6
+        # the lugs' fits put the outer rows up to 2 mm (0.8 of an element) past the root edge; projected,
+        # they folded onto it (16 inverted elements, 34 below 0.3 before). Placed on the claimed faces
+        # with the border's move spread over the interior (and the spin searched, above): 3 below, 0
+        # inverted
         r = self.report
         self.assertGreaterEqual(r["features"][0]["morphed_onto_faces"], 2)
-        per = [i["quality_goal"] for i in r["instances"]]
-        self.assertGreaterEqual(sum(g["ok"] for g in per), 4, per)
-        self.assertLessEqual(r["quality"]["goal"]["below_0_3"], 20)
+        self.assertLessEqual(r["quality"]["goal"]["below_0_3"], 8)
+        self.assertEqual(r["quality"]["patches"]["inverted"], 0)
+        self.assertEqual(r["conformity"]["duplicate_nodes"], 0)
 
 
 class MeshPartErrors(unittest.TestCase):
