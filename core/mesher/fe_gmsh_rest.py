@@ -329,7 +329,7 @@ def main():
                 chain.setdefault(int(a), []).append(int(b))
                 chain.setdefault(int(b), []).append(int(a))
 
-            def at_turn(key, c, v):
+            def at_turn(key, c):
                 return any(curve_of.get(n) != c for n in chain.get(key, []))
             corners = sorted({v for c in mine for v in curve_ends[c]})
             taken = set()
@@ -342,7 +342,7 @@ def main():
                     for c in mine:
                         if v in curve_ends[c]:
                             pairs += [(dist(cp, vx), v, key) for u, key, cp in on_curve[c]
-                                      if not strict or at_turn(key, c, v)]
+                                      if not strict or at_turn(key, c)]
                 for d, v, key in sorted(pairs):
                     if d > btol:
                         break

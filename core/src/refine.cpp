@@ -4,7 +4,6 @@
 #include "featureextract/geometry.h"
 
 #include <Eigen/Dense>
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -223,23 +222,16 @@ Polished SurfaceRefinement::polish(const Eigen::Matrix4d& H0, double cost0, cons
       // (NIST CTC-02's lug: a disc cut by its wall 26 mm from the bolt hole, whose top face and
       // cylinders are all about the axis): the spin is searched (every 10 degrees, then every 1 about
       // the best), and the least twisted spin is taken only where it fits as well as the best one, within
-      // 5 % or 0.001 L of sampling noise (a boss: every spin alike). Untwisting alone turned three of CTC-02's lugs 65-113 degrees.
-      auto spun = [&](double theta) {
-        const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, sym_.axis).toRotationMatrix();
-        Eigen::Matrix4d G = Eigen::Matrix4d::Identity();
-        G.topLeftCorner<3, 3>() = R;
-        G.topRightCorner<3, 1>() = sym_.point - R * sym_.point;
-        const Eigen::Matrix4d out = H * G;
-        return Eigen::Matrix4d(out / out(3, 3));
-      };
+      // 5 % or 0.001 L of sampling noise (a boss: every spin alike). Untwisting alone turned three of
+      // CTC-02's lugs 65-113 degrees.
       double best_theta = 0, best_rms = rh;
       auto try_spin = [&](double theta) {
-        const Eigen::Matrix4d Hs = spun(theta);
+        const Eigen::Matrix4d Hs = spin(H, sym_, theta);
         if (!scorer_.bounds_ok(Hs, nullptr)) return;
         const double r = scorer_.rms_on_surface(Hs);
         if (r < best_rms - 1e-12 * L_) best_rms = r, best_theta = theta;
       };
-      constexpr double deg = 3.14159265358979323846 / 180.0;
+      constexpr double deg = EIGEN_PI / 180.0;
       for (int k = 1; k < 36; ++k) try_spin(10.0 * k * deg);
       const double coarse = best_theta;
       for (int k = -9; k <= 9; ++k)
@@ -248,7 +240,7 @@ Polished SurfaceRefinement::polish(const Eigen::Matrix4d& H0, double cost0, cons
       if (scorer_.bounds_ok(Hu, nullptr) && scorer_.rms_on_surface(Hu) <= best_rms + std::max(0.05 * best_rms, 0.001 * L_ * s)) {
         H = Hu;
       } else if (best_theta != 0) {
-        H = spun(best_theta);
+        H = spin(H, sym_, best_theta);
         rh = best_rms;
       }
     }

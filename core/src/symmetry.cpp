@@ -95,12 +95,15 @@ Eigen::Matrix4d untwist(const Eigen::Matrix4d& H, const Symmetry& sym) {
   Eigen::Matrix3d K;
   K << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
   const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - a * a.transpose();
-  const double theta = std::atan2((A * K).trace(), (A * P).trace());
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, a).toRotationMatrix();
+  return spin(H, sym, std::atan2((A * K).trace(), (A * P).trace()));
+}
+
+Eigen::Matrix4d spin(const Eigen::Matrix4d& H, const Symmetry& sym, double theta) {
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, sym.axis).toRotationMatrix();
   Eigen::Matrix4d G = Eigen::Matrix4d::Identity();
   G.topLeftCorner<3, 3>() = R;
   G.topRightCorner<3, 1>() = sym.point - R * sym.point;
-  Eigen::Matrix4d out = H * G;
+  const Eigen::Matrix4d out = H * G;
   return out / out(3, 3);
 }
 

@@ -21,6 +21,9 @@ struct Symmetry {
 /// axisymmetric only when the normal lines meet one axis and turn around it (not a single plane).
 Symmetry detect_axisymmetry(const Points& x, const Points& n, double L);
 
+/// H composed with a spin of theta radians about the reference's axis (normalised, H(3, 3) = 1).
+Eigen::Matrix4d spin(const Eigen::Matrix4d& H, const Symmetry& sym, double theta);
+
 /// H composed with the spin about the reference's axis that makes H's linear part twist least, so
 /// that instances come out without an arbitrary spin and the same input gives the same orientation.
 Eigen::Matrix4d untwist(const Eigen::Matrix4d& H, const Symmetry& sym);
