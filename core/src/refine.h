@@ -5,11 +5,13 @@
 #pragma once
 
 #include "hypothesis.h"
+#include "kdtree.h"
 #include "symmetry.h"
 
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 namespace fe {
@@ -48,6 +50,12 @@ class SurfaceRefinement {
   };
   /// One refinement from H0; with `grow`, reverse pairs let it grow over whole target faces.
   Refined refine(const Eigen::Matrix4d& H0, double s0, bool grow) const;
+  /// The target's border samples (next to another B-rep face) within reach of the reference's border
+  /// mapped by H at scale s; null where the target has none there (a mesh target: one face).
+  std::unique_ptr<KdTree3> target_border(const Eigen::Matrix4d& H, double s) const;
+  /// Mean distance (reference units, truncated at the normal penalty) from the reference's border
+  /// samples mapped by H to the nearest target border sample.
+  double border_distance(const KdTree3& target_border, const Eigen::Matrix4d& H, double s) const;
 
   const ShapeDescription::Impl& R_;
   const ShapeDescription::Impl& T_;
@@ -58,6 +66,7 @@ class SurfaceRefinement {
   std::vector<int> face_;    // reference face of each (empty: no whole-face growth)
   double cell_ = 0;          // reference area per refinement sample
   Symmetry sym_;
+  Points border_;            // axisymmetric reference: core samples next to another face or the open border
 };
 
 }  // namespace fe

@@ -269,7 +269,9 @@ class MeshPartRealPart(unittest.TestCase):
             axis, root = apply((-302, 302, -41)), apply((-328.06, 302, -41))  # the reference lug's hole axis, its root edge
             wall = -1 if axis[0] < 0 else 1  # the wall is on the outer side: x = -328.06 or +328.06
             angle = math.degrees(math.atan2(root[1] - axis[1], (root[0] - axis[0]) * wall))
-            self.assertLess(abs(angle), 25, (m["faces"], angle))
+            # (the surface's RMS is flat over 30-40 degrees there and left three lugs 8-15 degrees
+            # turned; the spin is now chosen by where the borders land: all within 2.3 degrees)
+            self.assertLess(abs(angle), 5, (m["faces"], angle))
 
     def test_a_lug_claims_the_faces_its_mesh_covers_not_the_root_fillet_beside_it(self):
         # the extraction lists the root fillet of four of the six lugs (its mapped reference comes within
@@ -301,9 +303,12 @@ class MeshPartRealPart(unittest.TestCase):
         # inverted
         r = self.report
         self.assertGreaterEqual(r["features"][0]["morphed_onto_faces"], 2)
-        self.assertLessEqual(r["quality"]["goal"]["below_0_3"], 8)
+        # (with the spin chosen by the borders, 0 below 0.3 on all six lugs: 2 were left on lugs 5 and 6)
+        self.assertEqual(r["quality"]["goal"]["below_0_3"], 0)
+        self.assertTrue(all(inst["quality_goal"]["ok"] for inst in r["instances"]), [inst["quality_goal"] for inst in r["instances"]])
         self.assertEqual(r["quality"]["patches"]["inverted"], 0)
         self.assertEqual(r["conformity"]["duplicate_nodes"], 0)
+
 
 
 class MeshPartErrors(unittest.TestCase):
