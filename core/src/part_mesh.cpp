@@ -1,6 +1,7 @@
 // One FE mesh of the whole part (issue 12): patches, the mesher's job, assembly, conformity, CalculiX deck.
 #include "featureextract/part_mesh.h"
 
+#include "featureextract/geometry.h"
 #include "featureextract/mesh.h"
 #include "featureextract/transfer.h"
 
@@ -926,11 +927,21 @@ std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
   const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
   nlohmann::json out = nlohmann::json::array();
   if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return out.dump();
-  // the instance's scale and the reference +x direction, from the transform the transfer added
+  // the instance's scale and the reference +x direction, from the transform the transfer added: its
+  // Jacobian at the patch (a projective map's upper 3 x 3 alone is not its scale away from the
+  // origin: CTC-02's fifth lug, whose perspective row is 0.01, read 6x its size)
   Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
-  if (spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) A(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+  if (spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4) {
+    Eigen::Matrix4d H;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) H(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+    A = H.topLeftCorner<3, 3>();
+    if (patch.nodes.rows() > 0 && std::abs(H.determinant()) > 0) {
+      const Eigen::Vector3d g = patch.nodes.colwise().mean().transpose();
+      const Eigen::Matrix3d J = transform_jacobian(H, apply_transform(H.inverse(), g));
+      if (J.allFinite()) A = J;
+    }
+  }
   const double scale = std::cbrt(std::abs(A.determinant()));
   const double size = spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
                               spec["element"]["size"].is_number() ? spec["element"]["size"].get<double>() : 0.0;

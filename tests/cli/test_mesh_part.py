@@ -309,6 +309,15 @@ class MeshPartRealPart(unittest.TestCase):
         self.assertEqual(r["quality"]["patches"]["inverted"], 0)
         self.assertEqual(r["conformity"]["duplicate_nodes"], 0)
 
+    def test_the_element_size_rule_reads_each_lugs_own_scale_from_a_projective_fit(self):
+        # the rule took the transform's upper 3 x 3 for the scale: the fifth lug's fit has a perspective
+        # row of 0.01, which at x = 300 made it read 6x its size (element size ratio 0.16, failed)
+        r = self.report
+        for inst in r["instances"]:
+            size = [x for x in inst["rules"] if x["rule"] == "element_size"]
+            self.assertEqual(len(size), 1, inst["rules"])
+            self.assertTrue(size[0]["ok"], (inst["name"], size[0]))
+            self.assertGreater(size[0]["ratio"], 0.8, (inst["name"], size[0]))
 
 
 class MeshPartErrors(unittest.TestCase):
