@@ -352,7 +352,8 @@ def main():
                     if a.evidence:  # what each match was accepted on, and whether it was right
                         L = r["feature_size"]
                         row["evidence"] = [{"true": ok, "score": m["score"], "error": m["max_error"] / (L * m["scale"]),
-                                            "rms": m["rms_error"] / (L * m["scale"]), "keys": m.get("key_agreement"),
+                                            "rms": m["rms_error"] / (L * m["scale"]), "rms_unrefined": m["rms_error_unrefined"] / (L * m["scale"]),
+                                            "keys": m.get("key_agreement"),
                                             "stretch": m.get("stretch"), "perspective": m.get("perspective"),
                                             "faces": len(m["faces"]), "pairs": m["pairs"], "scale": m["scale"]}
                                            for m, ok in zip(r["matches"], labels)]
