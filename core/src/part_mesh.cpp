@@ -54,14 +54,25 @@ double median_edge(const FeMesh& m) {
   return len[len.size() / 2];
 }
 
-// The instance's scale, from the transform the transfer added to its specification (1 without one).
-double instance_scale(const nlohmann::json& spec) {
-  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
-  if (spec.is_object() && spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) A(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
-  return std::cbrt(std::abs(A.determinant()));
+// The linear part of the transform the transfer added to the instance's specification (identity
+// without one): its Jacobian at the target point `at` when given (a projective map's upper 3 x 3 alone
+// is not its linear part away from the origin: CTC-02's fifth lug, whose perspective row is 0.01, read
+// 6x its size), else its upper 3 x 3.
+Eigen::Matrix3d instance_linear(const nlohmann::json& spec, const Eigen::Vector3d* at = nullptr) {
+  if (!spec.is_object() || !spec.contains("transform") || !spec["transform"].is_array() || spec["transform"].size() != 4)
+    return Eigen::Matrix3d::Identity();
+  Eigen::Matrix4d H;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) H(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+  if (at && std::abs(H.determinant()) > 0) {
+    const Eigen::Matrix3d J = transform_jacobian(H, apply_transform(H.inverse(), *at));
+    if (J.allFinite()) return J;
+  }
+  return H.topLeftCorner<3, 3>();
 }
+
+// The instance's scale, from that transform's upper 3 x 3 (1 without one).
+double instance_scale(const nlohmann::json& spec) { return std::cbrt(std::abs(instance_linear(spec).determinant())); }
 
 // The width of the specification's transition zone on this instance (its "transition_zone" rule's
 // width times the instance's scale), 0 without one.
@@ -927,21 +938,9 @@ std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
   const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
   nlohmann::json out = nlohmann::json::array();
   if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return out.dump();
-  // the instance's scale and the reference +x direction, from the transform the transfer added: its
-  // Jacobian at the patch (a projective map's upper 3 x 3 alone is not its scale away from the
-  // origin: CTC-02's fifth lug, whose perspective row is 0.01, read 6x its size)
-  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
-  if (spec.contains("transform") && spec["transform"].is_array() && spec["transform"].size() == 4) {
-    Eigen::Matrix4d H;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) H(r, c) = spec["transform"][static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
-    A = H.topLeftCorner<3, 3>();
-    if (patch.nodes.rows() > 0 && std::abs(H.determinant()) > 0) {
-      const Eigen::Vector3d g = patch.nodes.colwise().mean().transpose();
-      const Eigen::Matrix3d J = transform_jacobian(H, apply_transform(H.inverse(), g));
-      if (J.allFinite()) A = J;
-    }
-  }
+  // the instance's scale and the reference +x direction, from the transform's Jacobian at the patch
+  const Eigen::Vector3d centroid = patch.nodes.rows() > 0 ? Eigen::Vector3d(patch.nodes.colwise().mean().transpose()) : Eigen::Vector3d::Zero();
+  const Eigen::Matrix3d A = instance_linear(spec, patch.nodes.rows() > 0 ? &centroid : nullptr);
   const double scale = std::cbrt(std::abs(A.determinant()));
   const double size = spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
                               spec["element"]["size"].is_number() ? spec["element"]["size"].get<double>() : 0.0;

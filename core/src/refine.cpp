@@ -53,11 +53,12 @@ SurfaceRefinement::SurfaceRefinement(const ShapeDescription::Impl& R, const Shap
 
 std::unique_ptr<KdTree3> SurfaceRefinement::target_border(const Eigen::Matrix4d& H, double s) const {
   if (border_.rows() == 0) return nullptr;
+  std::vector<Eigen::Vector3d> mapped(static_cast<std::size_t>(border_.rows()));
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  double reach = 0;
-  for (Eigen::Index k = 0; k < border_.rows(); ++k) c += apply_transform(H, border_.row(k).transpose());
+  for (Eigen::Index k = 0; k < border_.rows(); ++k) c += mapped[static_cast<std::size_t>(k)] = apply_transform(H, border_.row(k).transpose());
   c /= static_cast<double>(border_.rows());
-  for (Eigen::Index k = 0; k < border_.rows(); ++k) reach = std::max(reach, (apply_transform(H, border_.row(k).transpose()) - c).norm());
+  double reach = 0;
+  for (const Eigen::Vector3d& y : mapped) reach = std::max(reach, (y - c).norm());
   std::vector<int> idx, near_idx;
   std::vector<float> d2, near_d2;
   T_.dense_tree->radius(c, reach + 0.1 * L_ * s, idx, d2);
