@@ -34,6 +34,14 @@ void report(const ProgressFn& progress, const std::string& stage, double f) {
   if (progress && !progress(stage, std::min(1.0, std::max(0.0, f)))) throw Cancelled();
 }
 
+int up_to_two_threads() {
+#ifdef _OPENMP
+  return std::min(2, omp_get_max_threads());
+#else
+  return 1;
+#endif
+}
+
 void set_threads(const Params& p) {
 #ifdef _OPENMP
   omp_set_num_threads(p.threads > 0 ? p.threads : omp_get_num_procs());

@@ -49,6 +49,8 @@ void report(const ProgressFn& progress, const std::string& stage, double f);
 
 /// OpenMP's thread count from Params::threads (0: every core).
 void set_threads(const Params& p);
+/// Threads for two independent jobs run side by side: 2, or 1 where only one thread is allowed.
+int up_to_two_threads();
 
 struct Stopwatch {
   std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();

@@ -127,25 +127,35 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
     d.ok = true;
   };
   const int batch = std::max(1, o.batch);
-  std::vector<Draw> draws(static_cast<std::size_t>(batch));
+  std::vector<Draw> cur(static_cast<std::size_t>(batch)), next(static_cast<std::size_t>(batch));
   int since_best = 0;
   int it = 0;
-  bool stop = false;
-  while (!stop && it < o.max_iterations && since_best < o.patience) {
-    // draw the next iterations in order (the random stream is the sequential one) ...
-    const int m = std::min(batch, o.max_iterations - it);
-    for (int k = 0; k < m; ++k) draw(draws[static_cast<std::size_t>(k)]);
-    // ... score them, each against the best before the batch (a looser limit than the sequential
-    // one, so no hypothesis that could win is cut short) ...
+  // the first batch; then each next batch is drawn while the one before is scored (below)
+  int m = it < o.max_iterations && since_best < o.patience ? std::min(batch, o.max_iterations - it) : 0;
+  for (int k = 0; k < m; ++k) draw(cur[static_cast<std::size_t>(k)]);
+  while (m > 0) {
+    // Score this batch, each against the best before it (a looser limit than the sequential one, so
+    // no hypothesis that could win is cut short), on all threads; meanwhile one of them draws the
+    // next batch. The draws use only the random stream, in the sequential order, so the result is
+    // the one-at-a-time result (the draws were serial and half of CTC-02's RANSAC time).
+    const int m_next = std::min(batch, o.max_iterations - it - m);
     const double limit = best.cost;
-    if (m > 1) {
-#pragma omp parallel for schedule(dynamic, 1)
-      for (int k = 0; k < m; ++k)
-        if (draws[static_cast<std::size_t>(k)].ok) draws[static_cast<std::size_t>(k)].cost = cost(draws[static_cast<std::size_t>(k)].H, limit);
-    } else if (draws[0].ok) {
-      draws[0].cost = cost(draws[0].H, limit);
+#pragma omp parallel
+#pragma omp single
+    {
+      if (m_next > 0) {
+#pragma omp task
+        for (int k = 0; k < m_next; ++k) draw(next[static_cast<std::size_t>(k)]);
+      }
+      for (int k = 0; k < m; ++k) {
+        Draw* d = &cur[static_cast<std::size_t>(k)];
+        if (!d->ok) continue;
+#pragma omp task firstprivate(d)
+        d->cost = cost(d->H, limit);
+      }
     }
     // ... and take them in order, with the stopping rule as if one at a time
+    bool stop = false;
     for (int k = 0; k < m; ++k, ++it) {
       if (since_best >= o.patience || ((it & 63) == 0 && cancelled && cancelled())) {
         stop = true;
@@ -153,7 +163,7 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
       }
       ++best.iterations;
       ++since_best;
-      const Draw& d = draws[static_cast<std::size_t>(k)];
+      const Draw& d = cur[static_cast<std::size_t>(k)];
       if (!d.ok) continue;
       if (d.affine) ++best.affine_samples;
       if (d.cost < best.cost) {
@@ -164,6 +174,9 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
         since_best = 0;
       }
     }
+    if (stop || !(it < o.max_iterations && since_best < o.patience)) break;
+    cur.swap(next);
+    m = m_next;
   }
   return best;
 }

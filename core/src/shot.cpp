@@ -1,12 +1,16 @@
 #include "shot.h"
 
+#include "description.h"
+
 #include <pcl/console/print.h>
 #include <pcl/features/shot_lrf_omp.h>
 #include <pcl/features/shot_omp.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
 
+#include <algorithm>
 #include <cmath>
+#include <exception>
 #include <mutex>
 #include <unordered_map>
 
@@ -67,30 +71,55 @@ ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points
     pcl::PointCloud<pcl::PointNormal>::Ptr cloud;
     pcl::search::KdTree<pcl::PointNormal>::Ptr tree;
   };
-  std::vector<Level> levels;
-  auto level_for = [&](double radius) -> const Level& {
+  auto level_of = [&](double radius) {
     std::size_t k = 0;
     while (support_spacing * std::pow(2.0, static_cast<double>(k + 1)) <= radius / kSupportPerRadius) ++k;
-    while (levels.size() <= k) {
-      const double h = support_spacing * std::pow(2.0, static_cast<double>(levels.size()));
-      Level l;
-      if (levels.empty()) {
-        l.cloud = cloud_of(support, support_normals);
-      } else {
-        const std::vector<Eigen::Index> idx = thin(support, h);
-        Points p(static_cast<Eigen::Index>(idx.size()), 3), n(static_cast<Eigen::Index>(idx.size()), 3);
-        for (std::size_t i = 0; i < idx.size(); ++i) {
-          p.row(static_cast<Eigen::Index>(i)) = support.row(idx[i]);
-          n.row(static_cast<Eigen::Index>(i)) = support_normals.row(idx[i]);
-        }
-        l.cloud = cloud_of(p, n);
-      }
-      l.tree.reset(new pcl::search::KdTree<pcl::PointNormal>(false));
-      l.tree->setInputCloud(l.cloud);
-      levels.push_back(l);
-    }
-    return levels[k];
+    return k;
   };
+  std::size_t top = 0;
+  for (const double r : radii) top = std::max(top, level_of(r));
+  std::vector<Level> levels(top + 1);
+  auto build = [&](std::size_t k) {
+    Level& l = levels[k];
+    if (k == 0) {
+      l.cloud = cloud_of(support, support_normals);
+    } else {
+      const std::vector<Eigen::Index> idx = thin(support, support_spacing * std::pow(2.0, static_cast<double>(k)));
+      Points p(static_cast<Eigen::Index>(idx.size()), 3), n(static_cast<Eigen::Index>(idx.size()), 3);
+      for (std::size_t i = 0; i < idx.size(); ++i) {
+        p.row(static_cast<Eigen::Index>(i)) = support.row(idx[i]);
+        n.row(static_cast<Eigen::Index>(i)) = support_normals.row(idx[i]);
+      }
+      l.cloud = cloud_of(p, n);
+    }
+    l.tree.reset(new pcl::search::KdTree<pcl::PointNormal>(false));
+    l.tree->setInputCloud(l.cloud);
+  };
+  // Every level is built before the first radius: the full support's kd-tree on one core, the
+  // thinned ones on the other (each is built from the full support, so they do not wait on it).
+  std::exception_ptr failed[2];
+#pragma omp parallel sections num_threads(top > 0 ? up_to_two_threads() : 1)
+  {
+#pragma omp section
+    {
+      try {
+        build(0);
+      } catch (...) {
+        failed[0] = std::current_exception();
+      }
+    }
+#pragma omp section
+    {
+      try {
+        for (std::size_t k = 1; k <= top; ++k) build(k);
+      } catch (...) {
+        failed[1] = std::current_exception();
+      }
+    }
+  }
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
+  auto level_for = [&](double radius) -> const Level& { return levels[level_of(radius)]; };
   for (Eigen::Index r = 0; r < R; ++r) {
     const Level& level = level_for(radii[static_cast<std::size_t>(r)]);
     const auto& surface = level.cloud;

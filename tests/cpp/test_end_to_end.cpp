@@ -257,6 +257,37 @@ TEST(EndToEnd, SameSeedSameResult) {
   }
 }
 
+// The stages that run side by side on two threads (the SHOT support levels, RANSAC's next draws
+// beside the scoring, the two candidates' polish) give what one thread gives, to the bit: on the rib plate, and on FTC-06's bosses (a reference detected
+// axisymmetric: the polish's spin search).
+TEST(EndToEnd, OneThreadAndTwoGiveTheSameResult) {
+  struct Pair {
+    fe::TriangleMesh ref, tgt;
+    std::size_t at_least;
+  };
+  std::vector<Pair> cases;
+  {
+    Case c = load("rib_reference.step", "ribs_bosses.step");
+    cases.push_back({c.ref, c.tgt, 5});
+    const fe::TriangleMesh ref = fe::read_shape(models() + "/suite/ftc06_boss_reference.step");
+    cases.push_back({ref, fe::read_shape(models() + "/suite/ftc06.step", fe::tessellation_for_feature(ref.diagonal())), 3});
+  }
+  for (const Pair& c : cases) {
+    fe::Params one, two;
+    one.threads = 1;
+    two.threads = 2;
+    const fe::Result a = fe::extract(c.ref, c.tgt, one), b = fe::extract(c.ref, c.tgt, two);
+    ASSERT_GE(a.matches.size(), c.at_least);  // not two empty results
+    ASSERT_EQ(a.matches.size(), b.matches.size());
+    EXPECT_EQ(a.pairs_shot, b.pairs_shot);
+    for (std::size_t i = 0; i < a.matches.size(); ++i) {
+      EXPECT_EQ(a.matches[i].transform, b.matches[i].transform) << "match " << i;
+      EXPECT_EQ(a.matches[i].rms_error, b.matches[i].rms_error) << "match " << i;
+      EXPECT_EQ(a.matches[i].faces, b.matches[i].faces) << "match " << i;
+    }
+  }
+}
+
 TEST(EndToEnd, TargetDescriptionIsReusable) {
   const Case c = load("rib_reference.step", "ribs_bosses.step");
   const fe::Params p;

@@ -152,6 +152,20 @@ TEST(Ransac, BatchedScoringOnAllThreadsGivesTheSequentialResult) {
     EXPECT_EQ(b.sample, one.sample) << "batch " << batch;
   }
   EXPECT_GT(calls.load(), 3 * one.iterations / 2);  // the batches did run (four searches' worth of calls)
+  // Stopped by the iteration bound instead, which no batch size divides: the next batch (drawn while
+  // the one before is scored) must end at the bound too.
+  o.patience = 1000000;
+  o.max_iterations = 101;
+  o.batch = 1;
+  const fe::RansacResult bounded = fe::ransac_projective(r, t, std::function<double(const Eigen::Matrix4d&, double)>(cost), o);
+  ASSERT_EQ(bounded.iterations, 101);
+  for (const int batch : {2, 16, 64, 200}) {
+    o.batch = batch;
+    const fe::RansacResult b = fe::ransac_projective(r, t, std::function<double(const Eigen::Matrix4d&, double)>(cost), o);
+    EXPECT_EQ(b.iterations, 101) << "batch " << batch;
+    EXPECT_EQ(b.H, bounded.H) << "batch " << batch;
+    EXPECT_EQ(b.sample, bounded.sample) << "batch " << batch;
+  }
 }
 
 // The capped nearest-point query that RANSAC's cost uses: the very point nearest() gives whenever
