@@ -606,6 +606,21 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
     add("ftc06", "real part NIST FTC-06 (144 faces): its 4 bosses with counterbored holes, reference cut from one of them",
         "ftc06_boss_reference", "ftc06", truth, "real");
   }
+  // NIST CTC-01: one 25 mm hole (Face82, the wall of the hole at (-160, -45), 50 deep) cut out with a
+  // box, as bench/user_cases.py cuts its box references (the hole's box grown by 20 % of its diagonal):
+  // a block with the hole, whose sides are cut faces. Only the reference: the target is the part
+  // itself (EndToEnd.RoundHolesOfThreeSizesAreEachFoundOnce).
+  if (!real_dir.empty()) {
+    const std::string path = real_dir + "/nist_ctc_01_asme1_rd.stp";
+    STEPControl_Reader r;
+    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
+    const TopoDS_Shape s = r.OneShape();
+    const double x0 = -172.5, y0 = -57.5, z0 = -50, x1 = -147.5, y1 = -32.5, z1 = 0;
+    const double m = 0.2 * std::sqrt((x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0) + (z1 - z0) * (z1 - z0));
+    BRepAlgoAPI_Common common(s, BRepPrimAPI_MakeBox(gp_Pnt(x0 - m, y0 - m, z0 - m), gp_Pnt(x1 + m, y1 + m, z1 + m)).Shape());
+    if (!common.IsDone()) die("box cut of the CTC-01 hole failed");
+    BRepTools::Write(common.Shape(), (dir + "/ctc01_hole_boxcut_reference.brep").c_str());
+  }
   std::ofstream(dir + "/suite.json") << Json{{"units", "mm"}, {"cases", cases}}.dump(1) << "\n";
 }
 

@@ -11,15 +11,28 @@ bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach
   const Eigen::Vector3d lo = mapped.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(reach);
   const Eigen::Vector3d hi = mapped.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(reach);
   std::vector<int> near;  // within reach: the instance's center, box and faces
+  // dense samples per target face, and those within reach (Instance::touched: share by area)
+  const bool sampled_faces = T.dense.face_ids.size() == T.dense.points.rows() && tmesh.num_faces > 0;
+  std::vector<int> face_samples(sampled_faces ? static_cast<std::size_t>(tmesh.num_faces + 1) : 0, 0), face_near(face_samples.size(), 0);
+  auto face_of = [&](Eigen::Index j) {
+    const int f = T.dense.face_ids(j);
+    return static_cast<std::size_t>(f > 0 && f <= tmesh.num_faces ? f : 0);
+  };
   for (Eigen::Index j = 0; j < T.dense.points.rows(); ++j) {
+    if (sampled_faces) ++face_samples[face_of(j)];
     const Eigen::Vector3d q = T.dense.points.row(j);
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
     double d2;
     mapped_tree.nearest(q, &d2);
     const double d = std::sqrt(d2);
-    if (d <= reach) near.push_back(static_cast<int>(j));
+    if (d <= reach) {
+      near.push_back(static_cast<int>(j));
+      if (sampled_faces) ++face_near[face_of(j)];
+    }
     if (d <= merge_reach) inst.covered.push_back(static_cast<int>(j));
   }
+  for (std::size_t f = 1; f < face_samples.size(); ++f)
+    if (face_samples[f] >= 20 && face_near[f] >= kTouchedShare * face_samples[f]) inst.touched.push_back(static_cast<int>(f));
   if (near.empty()) return false;
   Eigen::Vector3d c = Eigen::Vector3d::Zero(), bmin = Eigen::Vector3d::Constant(INFINITY), bmax = -bmin;
   for (int j : near) {

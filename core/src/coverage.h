@@ -14,7 +14,14 @@ namespace fe {
 struct Instance {
   Match match;
   std::vector<int> covered;
+  /// Target faces the instance lies on over at least kTouchedShare of their area (by dense samples,
+  /// faces of 20 samples or more), sorted: two fits of a smaller reference sliding along one longer
+  /// instance each cover part of the same faces, too little of them to list them (merge.h).
+  std::vector<int> touched;
 };
+
+/// The share of a target face's area an instance must cover to count as lying on it (Instance::touched).
+constexpr double kTouchedShare = 0.25;
 
 /// Fills inst.covered, and inst.match's center, bbox, faces and (mesh input) triangles from the mapped
 /// reference samples `mapped` (kd-tree `mapped_tree`): a target sample or triangle centroid within

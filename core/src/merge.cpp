@@ -26,6 +26,13 @@ bool same_faces(const Match& a, const Match& b) {
   return 2 * both.size() > std::max(x.size(), y.size());
 }
 
+bool same_touched(const Instance& a, const Instance& b) {
+  if (a.touched.empty() || b.touched.empty()) return false;
+  std::vector<int> both;
+  std::set_intersection(a.touched.begin(), a.touched.end(), b.touched.begin(), b.touched.end(), std::back_inserter(both));
+  return 2 * both.size() > std::max(a.touched.size(), b.touched.size());
+}
+
 std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap) {
   std::stable_sort(found.begin(), found.end(), [](const Instance& a, const Instance& b) { return a.match.score > b.match.score; });
   std::vector<const Instance*> kept;
@@ -35,7 +42,7 @@ std::vector<Match> merge_instances(std::vector<Instance> found, double max_overl
       std::vector<int> both;
       std::set_intersection(f.covered.begin(), f.covered.end(), k->covered.begin(), k->covered.end(), std::back_inserter(both));
       const double denom = static_cast<double>(std::min(f.covered.size(), k->covered.size()));
-      dup = dup || static_cast<double>(both.size()) > max_overlap * denom || same_faces(f.match, k->match);
+      dup = dup || static_cast<double>(both.size()) > max_overlap * denom || same_faces(f.match, k->match) || same_touched(f, *k);
     }
     if (std::getenv("FE_DEBUG"))
       std::fprintf(stderr, "debug: instance at (%.1f %.1f %.1f) score %.3f, %zu samples covered: %s\n", f.match.center.x(), f.match.center.y(),

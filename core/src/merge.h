@@ -17,9 +17,15 @@ void sort_matches(std::vector<Match>& m);
 /// (false when either lists none).
 bool same_faces(const Match& a, const Match& b);
 
+/// Two instances lie mostly on the same target faces (Instance::touched): they share more than half
+/// of the longer list (false when either lists none). NIST CTC-01: a 50 mm deep hole's fits over the
+/// upper and the lower part of a 100 mm one each cover about 43 % of its wall, less than a face needs
+/// to be listed, and little of each other's samples.
+bool same_touched(const Instance& a, const Instance& b);
+
 /// The instances of one search, each once: of two that share more than max_overlap of the smaller
 /// one's covered samples, or mostly the same faces (same_faces: two fits of a smaller reference
-/// sliding along one longer instance cover different samples of the same faces), the better-scoring
+/// sliding along one longer instance cover different samples of the same faces; or same_touched), the better-scoring
 /// one stays (the earlier one on a tie). Sorted.
 std::vector<Match> merge_instances(std::vector<Instance> found, double max_overlap);
 

@@ -238,6 +238,45 @@ TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
   EXPECT_TRUE(std::any_of(loose.matches.begin(), loose.matches.end(), on_slot));
 }
 
+// NIST CTC-01's round holes (issue 9: holes of several radii, the most common feature of meshing
+// rules): the reference is one 25 mm hole, 50 deep, picked as its wall (one cylindrical face) or cut
+// out with a box (a block with the hole; fe_make_models --real). The part has ten round holes: four of
+// 25 mm, four of 35 mm and 100 deep (1.4x wider, 2x deeper), two drilled 20 mm blind holes along y.
+// Each is found once and nothing else: the box-cut hole took two fits on a 100 mm hole, over its
+// upper and its lower part, until instances were also merged by the faces they lie on (same_touched).
+TEST(EndToEnd, RoundHolesOfThreeSizesAreEachFoundOnce) {
+  const std::string part = std::string(FE_REAL_DIR) + "/nist_ctc_01_asme1_rd.stp";
+  const fe::TriangleMesh whole = fe::read_shape(part);
+  std::vector<char> drop(static_cast<std::size_t>(whole.triangles.rows()), 1);
+  for (Eigen::Index t = 0; t < whole.triangles.rows(); ++t)
+    if (whole.face_ids(t) == 82) drop[static_cast<std::size_t>(t)] = 0;
+  const fe::TriangleMesh picked = fe::without_triangles(whole, drop);
+  const fe::TriangleMesh boxcut = fe::read_shape(models() + "/suite/ctc01_hole_boxcut_reference.brep");
+  struct Hole {
+    double a, b;  // the axis: (x, y) for the holes along z, (x, z) for those along y
+    bool along_y;
+  };
+  const std::vector<Hole> holes = {{-160, -45, false}, {-160, 45, false}, {160, -45, false}, {160, 45, false}, {-325, -175, false},
+                                   {-325, 175, false}, {325, -175, false}, {325, 175, false}, {-30, -25, true},   {30, -25, true}};
+  for (const fe::TriangleMesh* ref : {&picked, &boxcut}) {
+    const std::string style = ref == &picked ? "picked" : "box cut";
+    const fe::TriangleMesh target = fe::read_shape(part, fe::tessellation_for_feature(ref->diagonal()));
+    const fe::Result r = fe::extract(*ref, target);
+    std::vector<int> per_hole(holes.size(), 0);
+    for (const fe::Match& mt : r.matches) {
+      int on = -1;
+      for (std::size_t h = 0; h < holes.size(); ++h) {
+        const double u = mt.center.x(), v = holes[h].along_y ? mt.center.z() : mt.center.y();
+        if (std::abs(u - holes[h].a) < 3 && std::abs(v - holes[h].b) < 3) on = static_cast<int>(h);
+      }
+      EXPECT_GE(on, 0) << style << ": a match off the holes at " << mt.center.transpose();
+      if (on >= 0) ++per_hole[static_cast<std::size_t>(on)];
+    }
+    for (std::size_t h = 0; h < holes.size(); ++h)
+      EXPECT_EQ(per_hole[h], 1) << style << ": hole at (" << holes[h].a << ", " << holes[h].b << ")";
+  }
+}
+
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
   const fe::Result r = run("rib_reference.step", "boss_only.step");
   EXPECT_TRUE(r.matches.empty());

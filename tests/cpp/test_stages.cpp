@@ -282,6 +282,14 @@ TEST_F(SelfMatch, TheTrueTransformCoversEveryFace) {
   EXPECT_LT((inst.match.bbox_max - R().box_max).norm(), 0.05 * R().L);
   EXPECT_LT((inst.match.center - c).norm(), 0.25 * R().L);
   EXPECT_TRUE(inst.match.triangles.empty());  // B-rep input: faces, not triangles
+  // every face big enough to count by samples is touched (and only those, sorted)
+  std::vector<int> samples(static_cast<std::size_t>(mesh->num_faces + 1), 0);
+  for (Eigen::Index j = 0; j < T().dense.face_ids.size(); ++j) ++samples[static_cast<std::size_t>(T().dense.face_ids(j))];
+  std::vector<int> big;
+  for (int f = 1; f <= mesh->num_faces; ++f)
+    if (samples[static_cast<std::size_t>(f)] >= 20) big.push_back(f);
+  ASSERT_FALSE(big.empty());
+  EXPECT_EQ(inst.touched, big);
   // a map off the target covers nothing
   fe::Points far = ev.mapped;
   far.col(0).array() += 10 * R().L;
@@ -322,6 +330,23 @@ TEST(MergeStage, TwoFitsOnMostlyTheSameFacesAreOneInstance) {
   EXPECT_EQ(m[1].score, 0.97);
   EXPECT_TRUE(fe::same_faces(a.match, b.match));
   EXPECT_FALSE(fe::same_faces(a.match, c.match));  // 1 shared: not more than half of c's 3
+}
+
+TEST(MergeStage, TwoFitsLyingOnPartsOfTheSameFacesAreOneInstance) {
+  // NIST CTC-01: a 50 mm deep hole's fits over the upper and the lower part of a 100 mm deep one
+  // cover about 43 % of its wall each: too little to list the face, few samples in common
+  fe::Instance upper = instance(0, 100, 0.995, 5), lower = instance(90, 200, 0.99, 6), beside = instance(300, 400, 0.97, 30);
+  upper.touched = {79};
+  lower.touched = {79};
+  beside.touched = {1, 79, 80};  // lies on that wall too, but mostly on two faces of its own
+  const std::vector<fe::Match> m = fe::merge_instances({upper, lower, beside}, 0.3);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0].score, 0.995);
+  EXPECT_EQ(m[1].score, 0.97);
+  EXPECT_TRUE(fe::same_touched(upper, lower));
+  EXPECT_FALSE(fe::same_touched(upper, beside));
+  fe::Instance none = instance(0, 10, 0.9, 0);
+  EXPECT_FALSE(fe::same_touched(upper, none));  // touching nothing counted (a mesh target): no verdict
 }
 
 TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
