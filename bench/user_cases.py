@@ -25,6 +25,7 @@ import argparse
 import hashlib
 import itertools
 import json
+import math
 import os
 import re
 import subprocess
@@ -117,7 +118,7 @@ def _full_cylinders(shape):
         if "Cylinder" not in type(f.Surface).__name__:
             continue
         u0, u1 = f.ParameterRange[:2]
-        if u1 - u0 > 2 * 3.14159 - 1e-3:
+        if u1 - u0 > 2 * math.pi - 1e-3:
             out.append((i, f.Surface))
     return out
 

@@ -90,6 +90,12 @@ Box bbox(const TopoDS_Shape& s) {
   std::exit(1);
 }
 
+TopoDS_Shape read_step(const std::string& path) {
+  STEPControl_Reader r;
+  if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
+  return r.OneShape();
+}
+
 TopoDS_Shape rib_solid(const Rib& r) {
   const double s = r.scale, wb = r.wb * s, wt = r.wt * s, h = r.h * s, len = r.length * s;
   // trapezoid in the XZ plane, slightly below z = 0 so the fuse with the plate is clean
@@ -561,9 +567,7 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
   // reference, the four ears (mirror images two by two) as the truth
   if (!real_dir.empty()) {
     const std::string path = real_dir + "/nist_ftc_10_asme1_rb.stp";
-    STEPControl_Reader r;
-    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
-    const TopoDS_Shape s = r.OneShape();
+    const TopoDS_Shape s = read_step(path);
     const Box ears[] = {{-81, -1, 18, -60, 33, 39}, {60, -1, 18, 81, 33, 39}, {-81, -1, -39, -60, 33, -18}, {60, -1, -39, 81, 33, -18}};
     const std::string names[] = {"ear x-, z+ (the reference)", "ear x+, z+", "ear x-, z-", "ear x+, z-"};
     Json truth = Json::array();
@@ -590,9 +594,7 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
   // counterbored holes), one of them as the reference
   if (!real_dir.empty()) {
     const std::string path = real_dir + "/nist_ftc_06_asme1_rd.stp";
-    STEPControl_Reader r;
-    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
-    const TopoDS_Shape s = r.OneShape();
+    const TopoDS_Shape s = read_step(path);
     Json truth = Json::array();
     std::vector<int> ref_faces;
     for (const double x : {-108.6, -36.2, 36.2, 108.6}) {
@@ -612,9 +614,7 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
   // itself (EndToEnd.RoundHolesOfThreeSizesAreEachFoundOnce).
   if (!real_dir.empty()) {
     const std::string path = real_dir + "/nist_ctc_01_asme1_rd.stp";
-    STEPControl_Reader r;
-    if (r.ReadFile(path.c_str()) != IFSelect_RetDone || r.TransferRoots() == 0) die(path + ": cannot read STEP");
-    const TopoDS_Shape s = r.OneShape();
+    const TopoDS_Shape s = read_step(path);
     const double x0 = -172.5, y0 = -57.5, z0 = -50, x1 = -147.5, y1 = -32.5, z1 = 0;
     const double m = 0.2 * std::sqrt((x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0) + (z1 - z0) * (z1 - z0));
     BRepAlgoAPI_Common common(s, BRepPrimAPI_MakeBox(gp_Pnt(x0 - m, y0 - m, z0 - m), gp_Pnt(x1 + m, y1 + m, z1 + m)).Shape());

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <limits>
 #include <sstream>
 #include <unordered_map>
@@ -34,12 +35,35 @@ void report(const ProgressFn& progress, const std::string& stage, double f) {
   if (progress && !progress(stage, std::min(1.0, std::max(0.0, f)))) throw Cancelled();
 }
 
-int up_to_two_threads() {
+void side_by_side(const std::function<void()>& a, const std::function<void()>& b, bool parallel) {
 #ifdef _OPENMP
-  return std::min(2, omp_get_max_threads());
+  const int threads = parallel ? std::min(2, omp_get_max_threads()) : 1;
 #else
-  return 1;
+  const int threads = 1;
+  (void)parallel;
 #endif
+  std::exception_ptr failed[2];
+#pragma omp parallel sections num_threads(threads)
+  {
+#pragma omp section
+    {
+      try {
+        a();
+      } catch (...) {
+        failed[0] = std::current_exception();
+      }
+    }
+#pragma omp section
+    {
+      try {
+        b();
+      } catch (...) {
+        failed[1] = std::current_exception();
+      }
+    }
+  }
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
 }
 
 void set_threads(const Params& p) {

@@ -8,6 +8,7 @@
 #include "shot.h"
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -49,8 +50,9 @@ void report(const ProgressFn& progress, const std::string& stage, double f);
 
 /// OpenMP's thread count from Params::threads (0: every core).
 void set_threads(const Params& p);
-/// Threads for two independent jobs run side by side: 2, or 1 where only one thread is allowed.
-int up_to_two_threads();
+/// Runs two independent jobs side by side (OpenMP sections, on two threads where more than one is
+/// allowed; one after the other when `parallel` is false), then rethrows the first one's exception.
+void side_by_side(const std::function<void()>& a, const std::function<void()>& b, bool parallel = true);
 
 struct Stopwatch {
   std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();

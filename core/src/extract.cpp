@@ -25,7 +25,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <exception>
 #include <functional>
 #include <sstream>
 
@@ -228,28 +227,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       // serial: its spin search alone was a quarter of CTC-02's RANSAC stage).
       Polished chosen, alt;
       if (rr.found && placement.pair >= 0) {
-        std::exception_ptr failed[2];
-#pragma omp parallel sections num_threads(up_to_two_threads())
-        {
-#pragma omp section
-          {
-            try {
-              chosen = refinement.polish(rr.H, rr.cost, rp, tp);
-            } catch (...) {
-              failed[0] = std::current_exception();
-            }
-          }
-#pragma omp section
-          {
-            try {
-              alt = refinement.polish(placement.H, placement.cost, rp, tp);
-            } catch (...) {
-              failed[1] = std::current_exception();
-            }
-          }
-        }
-        for (const std::exception_ptr& e : failed)
-          if (e) std::rethrow_exception(e);
+        side_by_side([&] { chosen = refinement.polish(rr.H, rr.cost, rp, tp); },
+                     [&] { alt = refinement.polish(placement.H, placement.cost, rp, tp); });
       } else if (rr.found) {
         chosen = refinement.polish(rr.H, rr.cost, rp, tp);
       } else {

@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <mutex>
 #include <unordered_map>
 
@@ -97,28 +96,11 @@ ShotSet compute_shot(const Points& keys, const Points& key_normals, const Points
   };
   // Every level is built before the first radius: the full support's kd-tree on one core, the
   // thinned ones on the other (each is built from the full support, so they do not wait on it).
-  std::exception_ptr failed[2];
-#pragma omp parallel sections num_threads(top > 0 ? up_to_two_threads() : 1)
-  {
-#pragma omp section
-    {
-      try {
-        build(0);
-      } catch (...) {
-        failed[0] = std::current_exception();
-      }
-    }
-#pragma omp section
-    {
-      try {
-        for (std::size_t k = 1; k <= top; ++k) build(k);
-      } catch (...) {
-        failed[1] = std::current_exception();
-      }
-    }
-  }
-  for (const std::exception_ptr& e : failed)
-    if (e) std::rethrow_exception(e);
+  side_by_side([&] { build(0); },
+               [&] {
+                 for (std::size_t k = 1; k <= top; ++k) build(k);
+               },
+               top > 0);
   auto level_for = [&](double radius) -> const Level& { return levels[level_of(radius)]; };
   for (Eigen::Index r = 0; r < R; ++r) {
     const Level& level = level_for(radii[static_cast<std::size_t>(r)]);
