@@ -13,7 +13,8 @@ References are made from the target's first instance, as a user makes them:
            cut faces that exist nowhere on the target);
   - stl:   the triangles of the target's STL inside that box (an open mesh region).
 Variants: `mirror` searches the mirror image of the target (every instance mirrored); `ref1.4` and
-`ref0.7` scale the reference (instances 1/1.4 and 1/0.7 of it); `stretch` searches the target
+`ref0.7` scale the reference (instances 1/1.4 and 1/0.7 of it; any `refX` works, e.g. `ref3` and
+`ref0.35` for the ends of the scale range); `stretch` searches the target
 stretched 1.5x along x (instances stretched, or sheared where they lie rotated).
 
 Scoring: a match is a true positive for the instance whose ground-truth box (grown by 10 % of its
@@ -240,6 +241,12 @@ def make_reference(shape, faces, style, work, name, scale=1.0):
     return path
 
 
+def variant_scale(variant):
+    """The reference's scale in a `refX` variant (the reference X times its instance: the instances
+    are 1/X of it), 1 otherwise."""
+    return float(variant[3:]) if variant.startswith("ref") else 1.0
+
+
 def mirrored_target(path, work, name):
     s = Part.read(path)
     m = s.mirror(App.Vector(0, 0, 0), App.Vector(1, 0, 0))
@@ -303,6 +310,59 @@ def in_range(ref_shape, ref_faces, scale, shape, instances, lo=0.5, hi=2.0):
     for f in instances:
         e = ext(shape, f)
         out.append(all(lo <= (e[i] + 1e-9) / (r[i] + 1e-9) <= hi for i in range(3)))
+    return out
+
+
+def range_fields(ref_shape, instances, scale, shape, hit):
+    """A row's counts of instances within the reference's size range, and of those found: 0.5-2x by
+    sorted extents (`in_range`), 0.5-2x per axis (`in_range_axes`, the issue's goal for machined
+    features) and 1/3-3x per axis (`in_scale_range`: the scale range the issue asks to search by
+    default). The reference is the first instance of `ref_shape` scaled by `scale`; `hit` flags the
+    instances (on `shape`) that were found."""
+    out = {}
+    for key, flags in (("in_range", in_range(ref_shape, instances[0], scale, shape, instances)),
+                       ("in_range_axes", in_range_axes(ref_shape, instances[0], scale, shape, instances)),
+                       ("in_scale_range", in_range_axes(ref_shape, instances[0], scale, shape, instances, 1 / 3, 3))):
+        out[key] = sum(flags)
+        out["found_" + key] = sum(1 for h, g in zip(hit, flags) if h and g)
+    return out
+
+
+def rescore(work, rows):
+    """The rows of an earlier run scored again with the current truth and range counts, not re-run:
+    from the result JSONs kept in `work` (a run made with --work), or, where a row's JSON is not there,
+    from the row's own per-instance hits (then only the range counts are new). Mirrored and stretched
+    targets missing from `work` are made there again."""
+    cases = {n: (t, i) for n, t, i in base_cases(os.path.join(ROOT, "build"))}
+    shapes = {}
+    def read(path):
+        if path not in shapes:
+            shapes[path] = Part.read(path)
+        return shapes[path]
+    out = []
+    for r in rows:
+        target, instances = cases[r["case"]]
+        shape = read(target)
+        tshape = shape
+        if r["variant"] in ("mirror", "stretch"):
+            path = os.path.join(work, f"{r['case']}_{r['variant']}.brep")
+            if not os.path.exists(path):
+                path = (mirrored_target if r["variant"] == "mirror" else stretched_target)(target, work, r["case"])
+            tshape = read(path)
+        scale = variant_scale(r["variant"])
+        r = dict(r, instances=len(instances))
+        kept = os.path.join(work, f"{r['case']}_{r['style']}_{r['variant']}.json")
+        if "error" in r:
+            r.update(found=0, false=0, mirrored=0, hit=[0] * len(instances))
+        elif not os.path.exists(kept):
+            if len(r["hit"]) != len(instances):
+                raise RuntimeError(f"{r['case']}: the row has {len(r['hit'])} instances, the truth {len(instances)}, and no result JSON to score again")
+        else:
+            res = json.load(open(kept))
+            tp, fp, mir, hit, _ = score(res, tshape, instances)
+            r.update(found=tp, false=fp, mirrored=mir, hit=[1 if h else 0 for h in hit])
+        r.update(range_fields(shape, instances, scale, tshape, r["hit"]))
+        out.append(r)
     return out
 
 
@@ -372,8 +432,15 @@ def main():
     ap.add_argument("--work", default="", help="keep the references, targets and each run's result JSON in this folder (to look into a case)")
     ap.add_argument("--evidence", action="store_true", help="add each match's acceptance evidence, labelled true or false, to the rows")
     ap.add_argument("--markdown", nargs="+", metavar="JSON", help="print the tables of earlier runs' JSON rows and exit")
+    ap.add_argument("--rescore", nargs=2, metavar=("WORK", "JSON"), help="score the rows of an earlier --work run again from the results kept in WORK (the current truth and range counts), write them to --out and print the tables")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter (for experiments only: results are reported with the defaults)")
     a = ap.parse_args()
+    if a.rescore:
+        rows = rescore(a.rescore[0], json.load(open(a.rescore[1])))
+        if a.out:
+            json.dump(rows, open(a.out, "w"), indent=1)
+        print(markdown(rows))
+        return
     if a.markdown:
         rows = [r for path in a.markdown for r in json.load(open(path))]
         print(markdown(rows))
@@ -389,7 +456,7 @@ def main():
             continue
         shape = Part.read(target)
         for variant in a.variants.split(","):
-            scale = {"ref1.4": 1.4, "ref0.7": 0.7}.get(variant, 1.0)
+            scale = variant_scale(variant)
             tgt, tshape = target, shape
             if variant in ("mirror", "stretch"):
                 try:
@@ -416,9 +483,9 @@ def main():
                 row = {"case": name, "style": style, "variant": variant, "split": split(name),
                        "instances": len(instances), "seconds": round(sec, 2)}
                 if p.returncode != 0:
-                    row.update(found=0, false=0, mirrored=0, in_range=sum(in_range(shape, instances[0], scale, tshape, instances)), found_in_range=0,
-                               in_range_axes=sum(in_range_axes(shape, instances[0], scale, tshape, instances)), found_in_range_axes=0,
-                               hit=[0] * len(instances), error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
+                    row.update(found=0, false=0, mirrored=0, hit=[0] * len(instances),
+                               error=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}")
+                    row.update(range_fields(shape, instances, scale, tshape, row["hit"]))
                 else:
                     r = json.load(open(out))
                     tp, fp, mir, hit, labels = score(r, tshape, instances)
@@ -430,12 +497,9 @@ def main():
                                             "stretch": m.get("stretch"), "perspective": m.get("perspective"),
                                             "faces": len(m["faces"]), "pairs": m["pairs"], "scale": m["scale"]}
                                            for m, ok in zip(r["matches"], labels)]
-                    rng = in_range(shape, instances[0], scale, tshape, instances)
                     row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
-                               in_range=sum(rng), found_in_range=sum(1 for h, g in zip(hit, rng) if h and g))
-                    axes = in_range_axes(shape, instances[0], scale, tshape, instances)
-                    row.update(in_range_axes=sum(axes), found_in_range_axes=sum(1 for h, g in zip(hit, axes) if h and g),
                                hit=[1 if h else 0 for h in hit])
+                    row.update(range_fields(shape, instances, scale, tshape, row["hit"]))
                 rows.append(row)
                 if a.out:  # after every run, so that an interrupted run keeps what it measured
                     json.dump(rows, open(a.out, "w"), indent=1)
@@ -472,7 +536,7 @@ def summarize(rows):
     groups = {}
     for r in rows:
         for key in [(r["split"], r["style"], r["variant"]), (r["split"], r["style"], "all"), (r["split"], "all", "all")]:
-            g = groups.setdefault(key, [0] * 8)
+            g = groups.setdefault(key, [0] * 10)
             g[0] += r["found"]
             g[1] += r["instances"]
             g[2] += r["false"]
@@ -481,14 +545,19 @@ def summarize(rows):
             g[5] += r["in_range"]
             g[6] += r.get("found_in_range_axes", 0)
             g[7] += r.get("in_range_axes", 0)
+            g[8] += r.get("found_in_scale_range", 0)
+            g[9] += r.get("in_scale_range", 0)
     axes = all("in_range_axes" in r for r in rows)  # rows from before the per-axis count have none
-    lines = ["| split | style | variant | runs | found | recall | false | precision | recall within 0.5-2x |" + (" per axis |" if axes else ""),
-             "|---|---|---|---|---|---|---|---|---|" + ("---|" if axes else "")]
+    wide = all("in_scale_range" in r for r in rows)  # nor the 1/3-3x count
+    lines = ["| split | style | variant | runs | found | recall | false | precision | recall within 0.5-2x |" + (" per axis |" if axes else "")
+             + (" within 1/3-3x per axis |" if wide else ""),
+             "|---|---|---|---|---|---|---|---|---|" + ("---|" if axes else "") + ("---|" if wide else "")]
     for k in sorted(groups):
-        f, n, fp, runs, fr, nr, fa, na = groups[k]
+        f, n, fp, runs, fr, nr, fa, na, fw, nw = groups[k]
         prec = f / (f + fp) if f + fp else 1.0
         lines.append(f"| {k[0]} | {k[1]} | {k[2]} | {runs} | {f} of {n} | {f / n if n else 0:.2f} | {fp} | {prec:.2f} | "
-                     f"{fr / nr if nr else 0:.2f} ({fr} of {nr}) |" + (f" {fa / na if na else 0:.2f} ({fa} of {na}) |" if axes else ""))
+                     f"{fr / nr if nr else 0:.2f} ({fr} of {nr}) |" + (f" {fa / na if na else 0:.2f} ({fa} of {na}) |" if axes else "")
+                     + (f" {fw / nw if nw else 0:.2f} ({fw} of {nw}) |" if wide else ""))
     return "\n".join(lines)
 
 

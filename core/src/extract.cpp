@@ -501,6 +501,13 @@ Result search(const TriangleMesh& reference_in, const TriangleMesh& target, cons
   }
 }
 
+void band_skipped(Result& out, const ScaleBand& band, const std::string& why) {
+  std::ostringstream w;
+  w.precision(3);
+  w << "instances " << band.f * band.lo << "-" << band.f * band.hi << " times the reference were not searched: " << why;
+  out.warnings.push_back(w.str());
+}
+
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
                      TargetFor target_for) {
@@ -508,25 +515,58 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
   const FeatureCore fc = feature_core(reference_in, sr.cut);
-  Result res = with_fallback(params_in, [&](const Params& params) {
-    const double L = reference.diagonal();
-    const ShapeDescription r = describe(reference, ShapeDescription::Role::Reference, L, params, progress);
+  // One pass: the reference (scaled by a scale band's f, merge.h) and its mirror image.
+  auto pass = [&](const TriangleMesh& ref, const FeatureCore& core, const Params& params) {
+    const double L = ref.diagonal();
+    const ShapeDescription r = describe(ref, ShapeDescription::Role::Reference, L, params, progress);
     const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
-    Result out = match_core(r, *t, target, params, progress, fc);
+    Result out = match_core(r, *t, target, params, progress, core);
     if (params.mirror) {
       const auto& R = r.impl();
       out.reference_mirror_symmetric = is_mirror_symmetric(R.dense.points, R.dense_normals, 1.5 * R.dense_h);
       if (!out.reference_mirror_symmetric) {
         Eigen::Matrix4d M;
         const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
-        const ShapeDescription rm = describe(mirrored_mesh(reference, c, &M), ShapeDescription::Role::Reference, L, params, progress);
-        FeatureCore fm = fc;  // the mirror image's core: reflected through x = c.x()
-        if (fc.set) {
-          fm.lo.x() = 2 * c.x() - fc.hi.x();
-          fm.hi.x() = 2 * c.x() - fc.lo.x();
+        const ShapeDescription rm = describe(mirrored_mesh(ref, c, &M), ShapeDescription::Role::Reference, L, params, progress);
+        FeatureCore fm = core;  // the mirror image's core: reflected through x = c.x()
+        if (core.set) {
+          fm.lo.x() = 2 * c.x() - core.hi.x();
+          fm.hi.x() = 2 * c.x() - core.lo.x();
         }
         merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
         out.mirror_searched = true;
+      }
+    }
+    return out;
+  };
+  Result res = with_fallback(params_in, [&](const Params& params) {
+    const std::vector<ScaleBand> bands = scale_bands(params.scale_min, params.scale_max);
+    Params first = params;
+    first.scale_min = bands[0].lo;
+    first.scale_max = bands[0].hi;
+    Result out = pass(reference, fc, first);
+    const Eigen::Vector3d c = 0.5 * (reference.vertices.colwise().minCoeff() + reference.vertices.colwise().maxCoeff()).transpose();
+    const double Lt = target.diagonal();
+    for (std::size_t b = 1; b < bands.size(); ++b) {
+      const ScaleBand& band = bands[b];
+      if (reference.diagonal() * band.f * band.lo > Lt * 1.0001) continue;  // instances larger than the part
+      TriangleMesh ref = reference;
+      ref.vertices = ((reference.vertices.rowwise() - c.transpose()) * band.f).rowwise() + c.transpose();
+      FeatureCore core = fc;
+      if (fc.set) {
+        core.lo = c + band.f * (fc.lo - c);
+        core.hi = c + band.f * (fc.hi - c);
+      }
+      Params bp = params;
+      bp.scale_min = band.lo;
+      bp.scale_max = band.hi;
+      if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: scale band f %.3f: instances %.3f-%.3f times the reference\n", band.f, band.f * band.lo, band.f * band.hi);
+      try {
+        merge_scale_band(out, pass(ref, core, bp), band.f, c, params);
+      } catch (const NoKeyPoints& e) {  // a band that cannot be searched leaves the others' instances
+        band_skipped(out, band, e.what());
+      } catch (const InputError& e) {  // the part too large for instances that small (describe())
+        band_skipped(out, band, e.what());
       }
     }
     return out;

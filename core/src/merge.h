@@ -39,4 +39,24 @@ bool same_instance(const Match& a, const Match& b, double max_overlap);
 /// mirrored). Counts and timings are added.
 void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p);
 
+/// Scale bands. One pass of the search covers instances kBandScaleMin to kBandScaleMax times the
+/// reference well (SHOT's radius ladder and the key points' curvature radius are set by the
+/// reference's size): a range beyond that (scale_min 1/3, scale_max 3) is searched in bands, each a
+/// pass with the reference scaled by f about its box center and scale_min, scale_max relative to it
+/// (lo, hi), so that each pass works near the scales it is good at and describes the target at a
+/// resolution fit for the instances it looks for. The first band is the reference itself.
+constexpr double kBandScaleMin = 0.8, kBandScaleMax = 2.6;
+struct ScaleBand {
+  double f = 1, lo = kBandScaleMin, hi = kBandScaleMax;
+};
+/// The bands that tile [scale_min, scale_max]: one band {1, scale_min, scale_max} when the range fits
+/// in one pass; else the band of the reference itself, bands below it (the reference shrunk, the
+/// target described finer), then above it.
+std::vector<ScaleBand> scale_bands(double scale_min, double scale_max);
+/// The 4x4 scaling by f about `center`.
+Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f);
+/// Matches of a scale band's pass join the result as merge_mirrored does, their H composed with the
+/// band's scaling (H S) and their scale multiplied by f.
+void merge_scale_band(Result& res, Result band, double f, const Eigen::Vector3d& center, const Params& p);
+
 }  // namespace fe

@@ -14,6 +14,7 @@
 #include "test_util.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -347,6 +348,77 @@ TEST(MergeStage, TwoFitsLyingOnPartsOfTheSameFacesAreOneInstance) {
   EXPECT_FALSE(fe::same_touched(upper, beside));
   fe::Instance none = instance(0, 10, 0.9, 0);
   EXPECT_FALSE(fe::same_touched(upper, none));  // touching nothing counted (a mesh target): no verdict
+}
+
+TEST(ScaleBands, TheDefaultRangeIsOnePassAsAsked) {
+  const fe::Params p;
+  const std::vector<fe::ScaleBand> b = fe::scale_bands(p.scale_min, p.scale_max);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(b[0].f, 1.0);
+  EXPECT_EQ(b[0].lo, p.scale_min);
+  EXPECT_EQ(b[0].hi, p.scale_max);
+  EXPECT_EQ(fe::scale_bands(0.9, 1.5).size(), 1u);  // a narrower range too
+}
+
+TEST(ScaleBands, AWideRangeIsTiledWithoutGapsByPassesTheParametersAccept) {
+  for (const auto& range : std::vector<std::pair<double, double>>{{1.0 / 3, 3.0}, {0.2, 8.0}, {0.7, 2.6}, {0.8, 2.7}, {0.1, 1.0}}) {
+    const std::vector<fe::ScaleBand> b = fe::scale_bands(range.first, range.second);
+    ASSERT_GE(b.size(), 2u) << range.first << "-" << range.second;
+    EXPECT_EQ(b[0].f, 1.0);  // the reference itself first
+    std::vector<std::pair<double, double>> covered;
+    for (const fe::ScaleBand& band : b) {
+      fe::Params p;
+      p.scale_min = band.lo;
+      p.scale_max = band.hi;
+      EXPECT_NO_THROW(p.validate()) << "band f " << band.f << ": " << band.lo << "-" << band.hi;
+      EXPECT_LE(band.hi / band.lo, fe::kBandScaleMax / fe::kBandScaleMin * (1 + 1e-9));  // what one pass covers well
+      covered.emplace_back(band.f * band.lo, band.f * band.hi);
+    }
+    std::sort(covered.begin(), covered.end());
+    EXPECT_NEAR(covered.front().first, range.first, 1e-9);
+    EXPECT_NEAR(covered.back().second, range.second, 1e-9);
+    for (std::size_t i = 1; i < covered.size(); ++i) EXPECT_LE(covered[i].first, covered[i - 1].second * (1 + 1e-9)) << "a gap below " << covered[i].first;
+  }
+  // 1/3-3: the reference itself (0.8-2.6), shrunk to 0.42 for 1/3-0.8 (the target described finer),
+  // grown to 2.6 for 2.6-3
+  const std::vector<fe::ScaleBand> b = fe::scale_bands(1.0 / 3, 3.0);
+  ASSERT_EQ(b.size(), 3u);
+  EXPECT_NEAR(b[1].f, 1.0 / 3 / 0.8, 1e-9);
+  EXPECT_NEAR(b[2].f, 2.6, 1e-9);
+}
+
+TEST(MergeStage, AScaleBandsMatchMapsTheReferenceItselfAndKeepsTheBetterOfTwo) {
+  // a band's pass searched the reference scaled by f about c: its H maps the scaled reference, so H S
+  // maps the reference; its scale is relative to the scaled reference
+  fe::Params p;
+  const Eigen::Vector3d c(10, 20, 30);
+  const double f = 0.4;
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H.topLeftCorner<3, 3>() = 0.9 * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  H.topRightCorner<3, 1>() = Eigen::Vector3d(100, 0, 0);
+  fe::Result all, band;
+  fe::Match a;
+  a.faces = {1, 2};
+  a.score = 0.95;
+  all.matches = {a};
+  fe::Match m;
+  m.transform = H;
+  m.scale = 0.9;
+  m.faces = {7, 8};
+  m.score = 0.99;
+  fe::Match again = a;  // the first band's instance found again, a little better: the first stays
+  again.score = 0.96;
+  band.matches = {m, again};
+  fe::merge_scale_band(all, band, f, c, p);
+  ASSERT_EQ(all.matches.size(), 2u);
+  const auto it = std::find_if(all.matches.begin(), all.matches.end(), [](const fe::Match& x) { return x.faces == std::vector<int>{7, 8}; });
+  ASSERT_NE(it, all.matches.end());
+  EXPECT_NEAR(it->scale, 0.36, 1e-12);
+  EXPECT_FALSE(it->mirrored);
+  const Eigen::Vector4d x(13, 17, 29, 1);                   // a point of the reference
+  const Eigen::Vector4d scaled(c.x() + f * 3, c.y() - f * 3, c.z() - f * 1, 1);  // where the band's reference has it
+  EXPECT_LT((it->transform * x - H * scaled).norm(), 1e-9);
+  EXPECT_EQ(std::count_if(all.matches.begin(), all.matches.end(), [](const fe::Match& x) { return x.score == 0.95; }), 1);
 }
 
 TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {

@@ -78,6 +78,11 @@ class PreparedTarget {
 };
 
 /// All six steps. Throws InputError for bad input (message names the shape), Cancelled.
+/// Instances scale_min to scale_max times the reference are searched; one pass covers 0.8-2.6, and a
+/// wider range (1/3-3, issue 9) is searched in scale bands: one more pass per band, with the
+/// reference scaled to the band and the target described at that size (finer below 0.8, so a band
+/// for small instances costs more than the default search). Matches of every band are merged; each
+/// reports its own scale. A band the part cannot be described for is skipped with a warning.
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params = {},
                const ProgressFn& progress = {});
 

@@ -27,8 +27,8 @@ struct Params {
   double shot_radius = 0.10;        ///< smallest SHOT support radius
   int shot_radii = 3;               ///< number of SHOT radii per descriptor (paper: multiple radii)
   double shot_radius_ratio = 1.26;  ///< ratio between consecutive SHOT radii (also the scale step)
-  double scale_min = 0.8;           ///< smallest target/reference scale searched by SHOT shifts
-  double scale_max = 2.6;           ///< largest target/reference scale searched by SHOT shifts
+  double scale_min = 0.8;           ///< smallest instance/reference scale searched; below 0.8 in scale bands (extract())
+  double scale_max = 2.6;           ///< largest instance/reference scale searched; above 2.6 in scale bands
 
   // --- step 3: key points (shape index bands)
   double si_band = 0.07;  ///< half-width of the rut (0.25) and ridge (0.75) bands that are not key points
