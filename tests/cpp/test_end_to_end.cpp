@@ -279,29 +279,29 @@ TEST(EndToEnd, RoundHolesOfThreeSizesAreEachFoundOnce) {
 
 // Issue 9's scale range, 1/3 to 3 times the reference (scale_min, scale_max): one pass covers
 // 0.8-2.6 well, so the rest is searched in scale bands (merge.h). The plate's five ribs from a rib
-// reference three times their size, and from one 2.8 times smaller.
-TEST(EndToEnd, InstancesAThirdOfTheReferenceAndNearlyThreeTimesItAreFoundInScaleBands) {
+// reference three times their size (one pass with scale_min 1/3 found none of them on the suite's
+// copy of the plate). The band above 2.6 is measured by bench/user_cases.py (`ref0.35`): a reference
+// that small describes the plate finely, 40 s here.
+TEST(EndToEnd, InstancesAThirdOfTheReferenceAreFoundInScaleBands) {
   const Case c = load("rib_reference.step", "ribs_bosses.step");
   const auto t = truth()["ribs_bosses.step"];
   fe::Params wide;
   wide.scale_min = 1.0 / 3;
   wide.scale_max = 3;
   const Eigen::RowVector3d center = 0.5 * (c.ref.vertices.colwise().minCoeff() + c.ref.vertices.colwise().maxCoeff());
-  for (const double f : {3.0, 1 / 2.8}) {
-    fe::TriangleMesh ref = c.ref;
-    ref.vertices = ((c.ref.vertices.rowwise() - center) * f).rowwise() + center;
-    const fe::Result r = fe::extract(ref, c.tgt, wide);
-    EXPECT_EQ(r.matches.size(), 5u) << "reference scaled " << f;
-    for (const auto& rib : t["ribs"]) {
-      const int i = match_near(r, rib[0], rib[1], 4.0);
-      ASSERT_GE(i, 0) << "reference scaled " << f << ": rib at " << rib << " not found";
-      const fe::Match& m = r.matches[static_cast<std::size_t>(i)];
-      expect_sane(m);
-      EXPECT_NEAR(m.scale, 1 / f, 0.15 / f) << "reference scaled " << f << ", rib at " << rib;
-      EXPECT_GT(m.score, 0.9);
-    }
-    for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss at " << b << " matched";
+  fe::TriangleMesh ref = c.ref;
+  ref.vertices = ((c.ref.vertices.rowwise() - center) * 3.0).rowwise() + center;
+  const fe::Result r = fe::extract(ref, c.tgt, wide);
+  EXPECT_EQ(r.matches.size(), 5u);
+  for (const auto& rib : t["ribs"]) {
+    const int i = match_near(r, rib[0], rib[1], 4.0);
+    ASSERT_GE(i, 0) << "rib at " << rib << " not found";
+    const fe::Match& m = r.matches[static_cast<std::size_t>(i)];
+    expect_sane(m);
+    EXPECT_NEAR(m.scale, 1.0 / 3, 0.05) << "rib at " << rib;
+    EXPECT_GT(m.score, 0.9);
   }
+  for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss at " << b << " matched";
 }
 
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
