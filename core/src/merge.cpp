@@ -100,6 +100,9 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
   res.topology_matches += other.topology_matches;
   for (const auto& t : other.timings)
     if (!mirrored || t.first.rfind("target_", 0) != 0) res.timings.push_back({prefix + t.first, t.second});
+  if (!mirrored)  // a band's own description of the part (sampled coarser than asked, ...)
+    for (const std::string& w : other.warnings)
+      if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end()) res.warnings.push_back(w);
 }
 }  // namespace
 

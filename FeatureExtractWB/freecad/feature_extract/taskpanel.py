@@ -11,8 +11,9 @@ from . import actions, background, translate
 
 PRESETS = {
     "Balanced": {},
-    "Wide scale (0.5-3x)": {"scale_min": 0.5, "scale_max": 3.0, "axis_scale_min": 0.4, "axis_scale_max": 3.6,
-                                   "volume_ratio_min": 0.1, "volume_ratio_max": 40.0},
+    # 1/3-3x in scale bands (one more pass below 0.8 and one above 2.6, each judged with the usual
+    # bounds relative to its band): slower, the part is described again for the small instances
+    "Wide scale (1/3-3x, slower)": {"scale_min": 1.0 / 3.0, "scale_max": 3.0},
     "Cylindrical (holes, lugs)": {"ridge_rut_spacing": 0.05},
     "Strict fit": {"accept_error": 0.03, "min_score": 0.8},
     "Fast (coarser)": {"dense_spacing": 0.02, "sparse_spacing": 0.05, "ransac_patience": 300},
