@@ -105,6 +105,13 @@ def main():
     check(probe.ref_box.currentText() == newer.Label, f"panel preselects the newest reference ({probe.ref_box.currentText()})")
     tip = probe.ref_box.itemData(probe.ref_box.currentIndex(), QtCore.Qt.ToolTipRole)
     check(tip.startswith("1 face of"), f"reference tooltip in words ({tip})")
+    # the Wide scale preset asks for issue 9's range, searched in scale bands, and nothing else
+    probe.preset.setCurrentIndex(list(taskpanel.PRESETS).index("Wide scale (1/3-3x)"))
+    wide = probe.parameters()
+    check(set(wide) == {"scale_min", "scale_max"} and abs(wide["scale_min"] - 1 / 3) < 1e-3 and wide["scale_max"] == 3.0,
+          f"Wide scale preset is 1/3-3x ({wide})")
+    probe.preset.setCurrentIndex(0)
+    check(probe.parameters() == {}, f"Balanced preset is the defaults ({probe.parameters()})")
     taskpanel.current = None
     doc.removeObject(newer.Name)
     doc.recompute()

@@ -13,10 +13,14 @@ PRESETS = {
     "Balanced": {},
     # 1/3-3x in scale bands (one more pass below 0.8 and one above 2.6, each judged with the usual
     # bounds relative to its band): slower, the part is described again for the small instances
-    "Wide scale (1/3-3x, slower)": {"scale_min": 1.0 / 3.0, "scale_max": 3.0},
+    "Wide scale (1/3-3x)": {"scale_min": 1.0 / 3.0, "scale_max": 3.0},
     "Cylindrical (holes, lugs)": {"ridge_rut_spacing": 0.05},
     "Strict fit": {"accept_error": 0.03, "min_score": 0.8},
     "Fast (coarser)": {"dense_spacing": 0.02, "sparse_spacing": 0.05, "ransac_patience": 300},
+}
+PRESET_TIPS = {
+    "Wide scale (1/3-3x)": "Instances from a third of the reference's size to three times it. Slower: one more "
+                           "pass for the instances under 0.8x (the part is described finer) and one over 2.6x.",
 }
 
 def label_of(name, unit):
@@ -61,6 +65,9 @@ class ExtractPanel:
         top.addRow(translate("FeatureExtract", "Reference"), self.ref_box)
         self.preset = QtGui.QComboBox()
         self.preset.addItems(list(PRESETS))
+        for i, name in enumerate(PRESETS):
+            if name in PRESET_TIPS:
+                self.preset.setItemData(i, translate("FeatureExtract", PRESET_TIPS[name]), QtCore.Qt.ToolTipRole)
         self.preset.currentIndexChanged.connect(self._apply_preset)
         top.addRow(translate("FeatureExtract", "Preset"), self.preset)
         lay.addLayout(top)
