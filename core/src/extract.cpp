@@ -539,6 +539,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     }
     return out;
   };
+  // With scale bands, the ridge-and-rut fallback happens when no band found anything (a band of small
+  // instances that finds one keeps the fallback from searching the reference's own band again).
   Result res = with_fallback(params_in, [&](const Params& params) {
     const std::vector<ScaleBand> bands = scale_bands(params.scale_min, params.scale_max);
     Params first = params;
@@ -569,6 +571,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         band_skipped(out, band, e.what());
       }
     }
+    out.params.scale_min = params.scale_min;  // the range asked for, not the first band's
+    out.params.scale_max = params.scale_max;
     return out;
   });
   res.reference_closed = sr.cut.closed;

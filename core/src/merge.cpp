@@ -83,6 +83,8 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
     m.transform = m.transform * M;
     m.transform /= m.transform(3, 3);
     m.scale *= scale;
+    m.stretch_min *= scale;  // singular values of H's Jacobian: H S's are f times H's
+    m.stretch_max *= scale;
     m.mirrored = m.mirrored || mirrored;
     bool dup = false;
     for (Match& d : res.matches) {

@@ -6,10 +6,12 @@
 
 #include "test_util.h"
 
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 
@@ -300,7 +302,24 @@ TEST(EndToEnd, InstancesAThirdOfTheReferenceAreFoundInScaleBands) {
     expect_sane(m);
     EXPECT_NEAR(m.scale, 1.0 / 3, 0.05) << "rib at " << rib;
     EXPECT_GT(m.score, 0.9);
+    // the transform maps the reference as given (not the band's shrunk copy): about the reference's
+    // center it shrinks volumes as the scale reported says, its stretches are about 1/3, and that
+    // center lands on the rib
+    auto map = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector4d y = m.transform * Eigen::Vector4d(p.x(), p.y(), p.z(), 1.0);
+      return Eigen::Vector3d(y.head<3>() / y(3));
+    };
+    const Eigen::Vector3d c0 = center.transpose();
+    const double h = 1e-3 * c.ref.diagonal();
+    Eigen::Matrix3d J;
+    for (int k = 0; k < 3; ++k) J.col(k) = (map(c0 + h * Eigen::Vector3d::Unit(k)) - map(c0 - h * Eigen::Vector3d::Unit(k))) / (2 * h);
+    EXPECT_NEAR(std::cbrt(std::abs(J.determinant())), m.scale, 0.1 * m.scale) << "rib at " << rib;
+    EXPECT_GT(m.stretch_min, 0.2) << "rib at " << rib;
+    EXPECT_LT(m.stretch_max, 0.5) << "rib at " << rib;
+    EXPECT_LT((map(c0) - m.center).norm(), 4.0) << "rib at " << rib;
   }
+  EXPECT_NEAR(r.params.scale_min, 1.0 / 3, 1e-12);  // the range asked for is what the result reports
+  EXPECT_EQ(r.params.scale_max, 3.0);
   for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss at " << b << " matched";
 }
 
