@@ -552,6 +552,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     for (std::size_t b = 1; b < bands.size(); ++b) {
       const ScaleBand& band = bands[b];
       if (reference.diagonal() * band.f * band.lo > Lt * 1.0001) continue;  // instances larger than the part
+      // the reference and its feature core scaled by f about c (S); the band's matches map them, H S the reference
+      const Eigen::Matrix4d S = scaling_about(c, band.f);
       TriangleMesh ref = reference;
       ref.vertices = ((reference.vertices.rowwise() - c.transpose()) * band.f).rowwise() + c.transpose();
       FeatureCore core = fc;
@@ -564,7 +566,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       bp.scale_max = band.hi;
       if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: scale band f %.3f: instances %.3f-%.3f times the reference\n", band.f, band.f * band.lo, band.f * band.hi);
       try {
-        merge_scale_band(out, pass(ref, core, bp), band.f, c, params);
+        merge_scale_band(out, pass(ref, core, bp), S, params);
       } catch (const NoKeyPoints& e) {  // a band that cannot be searched leaves the others' instances
         band_skipped(out, band, e.what());
       } catch (const InputError& e) {  // the part too large for instances that small (describe())

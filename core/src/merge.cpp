@@ -112,10 +112,11 @@ void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, cons
   join(res, std::move(mirrored), M, true, 1.0, "mirror_", p);
 }
 
-void merge_scale_band(Result& res, Result band, double f, const Eigen::Vector3d& center, const Params& p) {
+void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p) {
+  const double f = S(0, 0);
   std::ostringstream prefix;
   prefix << "scale_band_" << f << "_";
-  join(res, std::move(band), scaling_about(center, f), false, f, prefix.str(), p);
+  join(res, std::move(band), S, false, f, prefix.str(), p);
 }
 
 Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f) {

@@ -56,7 +56,7 @@ std::vector<ScaleBand> scale_bands(double scale_min, double scale_max);
 /// The 4x4 scaling by f about `center`.
 Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f);
 /// Matches of a scale band's pass join the result as merge_mirrored does, their H composed with the
-/// band's scaling (H S) and their scale multiplied by f.
-void merge_scale_band(Result& res, Result band, double f, const Eigen::Vector3d& center, const Params& p);
+/// band's scaling S = scaling_about(center, f) (H S), their scale and stretches multiplied by f.
+void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p);
 
 }  // namespace fe

@@ -409,7 +409,7 @@ TEST(MergeStage, AScaleBandsMatchMapsTheReferenceItselfAndKeepsTheBetterOfTwo) {
   fe::Match again = a;  // the first band's instance found again, a little better: the first stays
   again.score = 0.96;
   band.matches = {m, again};
-  fe::merge_scale_band(all, band, f, c, p);
+  fe::merge_scale_band(all, band, fe::scaling_about(c, f), p);
   ASSERT_EQ(all.matches.size(), 2u);
   const auto it = std::find_if(all.matches.begin(), all.matches.end(), [](const fe::Match& x) { return x.faces == std::vector<int>{7, 8}; });
   ASSERT_NE(it, all.matches.end());
