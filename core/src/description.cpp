@@ -101,8 +101,10 @@ int ladder_steps(double scale, double ratio) {
 
 }  // namespace
 
-ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
-                          const ProgressFn& progress) {
+namespace {
+
+ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
+                               const ProgressFn& progress, const ShapeDescription::Impl* base) {
   p.validate();
   set_threads(p);
   if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("describe: feature size must be > 0");
@@ -115,6 +117,20 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   const std::string& name = mesh.source.empty() ? who : mesh.source;
   Stopwatch sw;
 
+  if (base) {
+    // Steps 1 and 2 as the base made them (same mesh, size, seed and parameters but ridge_rut_spacing).
+    d->dense_h = base->dense_h;
+    d->sparse_h = base->sparse_h;
+    d->dense = base->dense;
+    d->dense_normals = base->dense_normals;
+    d->dense_tree = base->dense_tree;
+    d->box_min = base->box_min;
+    d->box_max = base->box_max;
+    d->sparse_points = base->sparse_points;
+    d->sparse_normals = base->sparse_normals;
+    d->sparse_si = base->sparse_si;
+    d->warnings = base->warnings;
+  } else {
   // Step 1: dense and sparse samples.
   report(progress, who + ": sampling", 0);
   d->dense_h = p.dense_spacing * L;
@@ -141,7 +157,7 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
     d->warnings.push_back(w.str());
   }
   d->dense = sample_surface(mesh, d->dense_h, p.seed);
-  const Samples sparse = sample_surface(mesh, d->sparse_h, p.seed + 1);
+  Samples sparse = sample_surface(mesh, d->sparse_h, p.seed + 1);
   d->box_min = mesh.vertices.colwise().minCoeff();
   d->box_max = mesh.vertices.colwise().maxCoeff();
   // one kd-tree over the dense samples for normals, curvature, creases and the matching (it was built
@@ -153,12 +169,28 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   report(progress, who + ": normals", 0);
   const double rn = p.normal_radius * L;
   d->dense_normals = estimate_normals(*d->dense_tree, d->dense, d->dense, rn);
-  const Points sparse_normals = estimate_normals(*d->dense_tree, d->dense, sparse, rn);
+  d->sparse_normals = estimate_normals(*d->dense_tree, d->dense, sparse, rn);
   d->timings.push_back({who + "_normals", sw.lap()});
 
-  // Step 2b + 3: shape index at sparse samples, key points.
+  // Step 2b: shape index at sparse samples.
   report(progress, who + ": shape index", 0);
-  const Eigen::MatrixX2d k = principal_curvatures(*d->dense_tree, d->dense.points, d->dense_normals, sparse.points, sparse_normals, p.curvature_radius * L);
+  const Eigen::MatrixX2d k = principal_curvatures(*d->dense_tree, d->dense.points, d->dense_normals, sparse.points, d->sparse_normals, p.curvature_radius * L);
+  // Sharp creases (machined features: planes meeting at edges and corners) look planar to the quadric
+  // fit over same-side neighbours; there the crease's own shape index is used, offset so that sharp
+  // and filleted shapes stay apart (kCreaseShapeIndex).
+  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(*d->dense_tree, d->dense, sparse, p.curvature_radius * L)
+                                                     : Eigen::VectorXd::Constant(k.rows(), std::numeric_limits<double>::quiet_NaN());
+  d->sparse_si.resize(k.rows());
+  for (Eigen::Index i = 0; i < k.rows(); ++i) {
+    double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
+    if ((si == kPlanarShapeIndex || !std::isfinite(si)) && std::isfinite(crease(i))) si = kCreaseShapeIndex + crease(i);
+    d->sparse_si(i) = si;
+  }
+  d->sparse_points = std::move(sparse.points);
+  d->timings.push_back({who + "_shape_index", sw.lap()});
+  }
+
+  // Step 3: key points.
   std::vector<Eigen::Index> key;
   std::vector<double> key_si;
   // Ridge and rut points (cylinders: holes, lugs, bosses, fillets) are not key points in the paper;
@@ -166,18 +198,13 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   // features made of cylinders still have key points without flooding the matching.
   std::unordered_map<std::uint64_t, char> ridge_cells;
   const double ridge_h = p.ridge_rut_spacing * L;
-  const Eigen::Vector3d origin = sparse.points.size() ? Eigen::Vector3d(sparse.points.colwise().minCoeff()) : Eigen::Vector3d::Zero();
-  // Sharp creases (machined features: planes meeting at edges and corners) look planar to the quadric
-  // fit over same-side neighbours; there the crease's own shape index is used, offset so that sharp
-  // and filleted shapes stay apart (kCreaseShapeIndex).
-  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(*d->dense_tree, d->dense, sparse, p.curvature_radius * L)
-                                                     : Eigen::VectorXd::Constant(k.rows(), std::numeric_limits<double>::quiet_NaN());
-  for (Eigen::Index i = 0; i < k.rows(); ++i) {
-    double si = shape_index(k(i, 0), k(i, 1), p.planar_curvedness / L);
-    if ((si == kPlanarShapeIndex || !std::isfinite(si)) && std::isfinite(crease(i))) si = kCreaseShapeIndex + crease(i);
+  const Points& sparse_points = d->sparse_points;
+  const Eigen::Vector3d origin = sparse_points.size() ? Eigen::Vector3d(sparse_points.colwise().minCoeff()) : Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < d->sparse_si.size(); ++i) {
+    const double si = d->sparse_si(i);
     bool take = is_key_shape_index(si, p.si_band);
     if (!take && ridge_h > 0 && si >= 0) {
-      const Eigen::Vector3d g = ((sparse.points.row(i).transpose() - origin) / ridge_h).array().floor();
+      const Eigen::Vector3d g = ((sparse_points.row(i).transpose() - origin) / ridge_h).array().floor();
       const std::uint64_t cell = (static_cast<std::uint64_t>(g.x()) & 0x1FFFFF) << 42 |
                                  (static_cast<std::uint64_t>(g.y()) & 0x1FFFFF) << 21 | (static_cast<std::uint64_t>(g.z()) & 0x1FFFFF);
       take = ridge_cells.emplace(cell, 1).second;
@@ -187,7 +214,7 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
       key_si.push_back(si);
     }
   }
-  d->timings.push_back({who + "_shape_index", sw.lap()});
+
 
   // Step 2c: multi-radius SHOT at key points, dense samples as support.
   d->m = p.shot_radii;
@@ -199,13 +226,50 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   for (int r = -d->D; r < d->m + d->U; ++r) radii.push_back(p.shot_radius * L * std::pow(p.shot_radius_ratio, r));
   Points keys(static_cast<Eigen::Index>(key.size()), 3), key_n(static_cast<Eigen::Index>(key.size()), 3);
   for (std::size_t i = 0; i < key.size(); ++i) {
-    keys.row(static_cast<Eigen::Index>(i)) = sparse.points.row(key[i]);
-    key_n.row(static_cast<Eigen::Index>(i)) = sparse_normals.row(key[i]);
+    keys.row(static_cast<Eigen::Index>(i)) = d->sparse_points.row(key[i]);
+    key_n.row(static_cast<Eigen::Index>(i)) = d->sparse_normals.row(key[i]);
   }
   report(progress, who + ": SHOT descriptors", 0);
-  ShotSet shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, [&](std::size_t r) {
+  auto after_radius = [&](std::size_t r) {
     return !progress || progress(who + ": SHOT descriptors", static_cast<double>(r + 1) / static_cast<double>(radii.size()));
-  });
+  };
+  ShotSet shot;
+  if (!base) {
+    shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, after_radius);
+  } else {
+    // A key point's descriptors depend on it and the support only: the base's rows are copied, and
+    // SHOT runs on the key points the base does not have (the ridge and rut points).
+    std::unordered_map<Eigen::Index, Eigen::Index> base_row;
+    for (std::size_t a = 0; a < base->key_sparse.size(); ++a) base_row.emplace(base->key_sparse[a], static_cast<Eigen::Index>(a));
+    std::vector<Eigen::Index> fresh;
+    for (std::size_t i = 0; i < key.size(); ++i)
+      if (!base_row.count(key[i])) fresh.push_back(static_cast<Eigen::Index>(i));
+    Points fk(static_cast<Eigen::Index>(fresh.size()), 3), fn(static_cast<Eigen::Index>(fresh.size()), 3);
+    for (std::size_t a = 0; a < fresh.size(); ++a) {
+      fk.row(static_cast<Eigen::Index>(a)) = keys.row(fresh[a]);
+      fn.row(static_cast<Eigen::Index>(a)) = key_n.row(fresh[a]);
+    }
+    const ShotSet computed = compute_shot(fk, fn, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, after_radius);
+    const Eigen::Index K = keys.rows();
+    shot.desc.resize(K, computed.desc.cols());
+    shot.valid.resize(K, computed.valid.cols());
+    shot.lrf.resize(K, computed.lrf.cols());
+    if (base->shot.desc.cols() != shot.desc.cols()) throw std::invalid_argument("describe_reusing: the base has other SHOT radii");
+    std::size_t a = 0;
+    for (Eigen::Index i = 0; i < K; ++i) {
+      const auto it = base_row.find(key[static_cast<std::size_t>(i)]);
+      if (it == base_row.end()) {
+        shot.desc.row(i) = computed.desc.row(static_cast<Eigen::Index>(a));
+        shot.valid.row(i) = computed.valid.row(static_cast<Eigen::Index>(a));
+        shot.lrf.row(i) = computed.lrf.row(static_cast<Eigen::Index>(a));
+        ++a;
+      } else {
+        shot.desc.row(i) = base->shot.desc.row(it->second);
+        shot.valid.row(i) = base->shot.valid.row(it->second);
+        shot.lrf.row(i) = base->shot.lrf.row(it->second);
+      }
+    }
+  }
   // Drop key points without any finite descriptor (paper: non-finite descriptors are not matched).
   std::vector<Eigen::Index> keep;
   for (Eigen::Index i = 0; i < keys.rows(); ++i)
@@ -225,9 +289,12 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
     d->shot.valid.row(r) = shot.valid.row(i);
     d->shot.lrf.row(r) = shot.lrf.row(i);
   }
+  d->key_sparse.resize(keep.size());
+  for (std::size_t a = 0; a < keep.size(); ++a) d->key_sparse[a] = key[static_cast<std::size_t>(keep[a])];
   d->timings.push_back({who + "_shot", sw.lap()});
-  d->sparse_points = sparse.points;
-  if (p.topology_hypotheses) {
+  if (p.topology_hypotheses && base && base->params.topology_hypotheses) {
+    d->regions = base->regions;
+  } else if (p.topology_hypotheses) {
     report(progress, who + ": regions", 0);
     d->regions = region_graph(mesh);
     d->timings.push_back({who + "_regions", sw.lap()});
@@ -237,7 +304,7 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
   s.triangles = static_cast<std::size_t>(mesh.triangles.rows());
   s.faces = static_cast<std::size_t>(mesh.num_faces);
   s.dense_points = d->dense.size();
-  s.sparse_points = sparse.size();
+  s.sparse_points = static_cast<std::size_t>(d->sparse_points.rows());
   s.key_points = key.size();
   s.descriptors = keep.size();
   s.dropped_degenerate = mesh.dropped_degenerate;
@@ -257,6 +324,28 @@ ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role,
     }
   }
   return ShapeDescription(d);
+}
+
+}  // namespace
+
+ShapeDescription describe(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
+                          const ProgressFn& progress) {
+  return describe_impl(mesh, role, L, p, progress, nullptr);
+}
+
+ShapeDescription describe_reusing(const TriangleMesh& mesh, const ShapeDescription& base, const Params& p,
+                                  const ProgressFn& progress) {
+  if (base.empty()) throw std::invalid_argument("describe_reusing: empty base");
+  const ShapeDescription::Impl& b = base.impl();
+  const auto mine = descriptor_parameters(p), theirs = descriptor_parameters(b.params);
+  for (std::size_t i = 0; i < mine.size(); ++i)
+    if (mine[i].second != theirs[i].second && std::string(mine[i].first) != "ridge_rut_spacing")
+      throw std::invalid_argument(std::string("describe_reusing: the base was described with another ") + mine[i].first);
+  if (p.seed != b.params.seed || p.scale_min != b.params.scale_min || p.scale_max != b.params.scale_max)
+    throw std::invalid_argument("describe_reusing: the base was described with another seed or scale range");
+  if (mesh.triangles.rows() != static_cast<Eigen::Index>(b.stats.triangles) || mesh.diagonal() != b.stats.diagonal)
+    throw std::invalid_argument("describe_reusing: the base describes another mesh");
+  return describe_impl(mesh, b.role, b.L, p, progress, &b);
 }
 
 namespace {

@@ -25,6 +25,9 @@ struct ShapeDescription::Impl {
   Points dense_normals;  // PCA normals of the dense samples
   std::shared_ptr<KdTree3> dense_tree;
   Points sparse_points;
+  Points sparse_normals;          // PCA normals of the sparse samples
+  Eigen::VectorXd sparse_si;      // shape index of every sparse sample (crease index where planar)
+  std::vector<Eigen::Index> key_sparse;  // the sparse sample each key point is
   Points keys, key_normals;
   Eigen::VectorXd key_si;
   ShotSet shot;
@@ -44,6 +47,15 @@ struct NoKeyPoints : InputError {
 /// The parameters that shape a description (steps 1-3) besides the feature size, the seed and (for
 /// a target) the scale range: match() requires them equal, and they key PreparedTarget's cache.
 std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& p);
+
+/// describe() that reuses `base`: a description of the same mesh, for the same feature size, seed,
+/// scale range and parameters except ridge_rut_spacing (the search's first pass, before its
+/// ridge-and-rut fallback). Its samples, normals, kd-tree and shape indices are taken as they are,
+/// and the SHOT descriptors of the key points both have are copied: the result is the description
+/// describe() would make, without computing those again. Throws std::invalid_argument when `base`
+/// does not fit.
+ShapeDescription describe_reusing(const TriangleMesh& mesh, const ShapeDescription& base, const Params& p,
+                                  const ProgressFn& progress = {});
 
 /// Progress report of a stage (fraction clamped to 0..1); throws Cancelled when the callback says stop.
 void report(const ProgressFn& progress, const std::string& stage, double f);

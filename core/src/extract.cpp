@@ -604,6 +604,25 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
 }
 }  // namespace
 
+namespace {
+using Descriptions = std::vector<std::pair<std::string, std::shared_ptr<const ShapeDescription>>>;
+
+// The target's description for one pass. The ridge-and-rut fallback's pass reuses the description
+// of the first pass with the same size and parameters, if `made` still holds it (describe_reusing:
+// the same description, without sampling, normals, shape index and the paper's key points' SHOT again).
+std::shared_ptr<const ShapeDescription> describe_target(const TriangleMesh& target, double L, const Params& params,
+                                                        const ProgressFn& progress, const Descriptions& made) {
+  if (params.ridge_rut_spacing > 0) {
+    Params first = params;
+    first.ridge_rut_spacing = 0;
+    const std::string key = description_key(L, first);
+    for (const auto& m : made)
+      if (m.first == key) return std::make_shared<const ShapeDescription>(describe_reusing(target, *m.second, params, progress));
+  }
+  return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
+}
+}  // namespace
+
 PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
 
 Result PreparedTarget::extract(const TriangleMesh& reference, const Params& params_in, const ProgressFn& progress) {
@@ -612,7 +631,7 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
     std::lock_guard<std::mutex> lock(mutex_);  // a second query for the same key waits instead of recomputing
     for (const auto& c : cache_)
       if (c.first == key) return c.second;
-    auto t = std::make_shared<const ShapeDescription>(describe(mesh_, ShapeDescription::Role::Target, L, params, checked));
+    auto t = describe_target(mesh_, L, params, checked, cache_);
     cache_.emplace_back(key, t);
     ++built_;
     if (cache_.size() > 4) cache_.erase(cache_.begin());  // bounded memory
@@ -621,9 +640,13 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
 }
 
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
+  // One description per pass. The first one (the reference's own scale band) is kept for the
+  // ridge-and-rut fallback to reuse: one description more in memory while a band or the fallback runs.
+  Descriptions first;
   return search(reference, target, params_in, progress, [&](double L, const Params& params, const ProgressFn& checked) {
-    // one description per pass (the fallback describes again with its own key points)
-    return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, checked));
+    auto t = describe_target(target, L, params, checked, first);
+    if (first.empty() && params.ridge_rut_fallback > 0 && !(params.ridge_rut_spacing > 0)) first.emplace_back(description_key(L, params), t);
+    return t;
   });
 }
 

@@ -451,3 +451,46 @@ TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
 }
 
 }  // namespace
+
+// The ridge-and-rut fallback's target description reuses the first pass's (describe_reusing): it must
+// be the description describe() makes, to the bit, with SHOT computed only for the key points the
+// first pass did not have.
+TEST(Description, TheFallbackReusesTheFirstPassAndDescribesTheSameTarget) {
+  const fe::TriangleMesh target = fe::read_shape(models() + "/ribs_bosses.step");
+  const double L = fe::read_shape(models() + "/rib_reference.step").diagonal();
+  fe::Params first;
+  const fe::ShapeDescription base = fe::describe(target, fe::ShapeDescription::Role::Target, L, first);
+  fe::Params again = first;
+  again.ridge_rut_spacing = first.ridge_rut_fallback;
+  const fe::ShapeDescription fresh = fe::describe(target, fe::ShapeDescription::Role::Target, L, again);
+  const fe::ShapeDescription reused = fe::describe_reusing(target, base, again);
+  const auto &B = base.impl(), &F = fresh.impl(), &U = reused.impl();
+  ASSERT_GT(B.keys.rows(), 10);
+  ASSERT_GT(F.keys.rows(), B.keys.rows() + 10);  // the ridge and rut points are new key points
+  EXPECT_EQ(U.keys, F.keys);
+  EXPECT_EQ(U.key_normals, F.key_normals);
+  EXPECT_EQ(U.key_si, F.key_si);
+  EXPECT_EQ(U.key_sparse, F.key_sparse);
+  EXPECT_TRUE(U.shot.desc == F.shot.desc);
+  EXPECT_TRUE(U.shot.valid == F.shot.valid);
+  EXPECT_TRUE(U.shot.lrf == F.shot.lrf);
+  EXPECT_EQ(U.dense.points, F.dense.points);
+  EXPECT_EQ(U.dense_normals, F.dense_normals);
+  EXPECT_EQ(U.D, F.D);
+  EXPECT_EQ(U.U, F.U);
+  EXPECT_EQ(U.regions.triangle_region, F.regions.triangle_region);
+  EXPECT_EQ(U.stats.key_points, F.stats.key_points);
+  EXPECT_EQ(U.stats.sparse_points, F.stats.sparse_points);
+  // the base's key points are all among the fallback's (so their SHOT rows were copied, not computed)
+  std::set<Eigen::Index> mine(U.key_sparse.begin(), U.key_sparse.end());
+  for (Eigen::Index s : B.key_sparse) EXPECT_TRUE(mine.count(s)) << s;
+  // the stages it reused are not timed again
+  for (const auto& t : U.timings) EXPECT_TRUE(t.first == "target_shot") << t.first;
+  // a base described otherwise is refused, not silently mixed in
+  fe::Params other = again;
+  other.dense_spacing *= 1.5;
+  EXPECT_THROW(fe::describe_reusing(target, base, other), std::invalid_argument);
+  other = again;
+  other.seed += 1;
+  EXPECT_THROW(fe::describe_reusing(target, base, other), std::invalid_argument);
+}
