@@ -83,9 +83,15 @@ def base_cases(build):
     ftc06 = os.path.join(SHARED, "real", "nist_ftc_06_asme1_rd.stp")
     if os.path.exists(ftc06):
         out.append(("ftc06_counterbores", ftc06, ftc06_counterbores(ftc06)))
+    ftc10 = os.path.join(SHARED, "real", "nist_ftc_10_asme1_rb.stp")
+    if os.path.exists(ftc10):
+        out.append(("ftc10_drilled_holes", ftc10, ftc10_drilled_holes(ftc10)))
     top = "/usr/share/opencascade/data/occ/Top.brep"  # Debian occt-misc
     if os.path.exists(top):
         out.append(("occt_top_bosses", top, top_bosses(top)))
+    bottom = "/usr/share/opencascade/data/occ/Bottom.brep"
+    if os.path.exists(bottom):
+        out.append(("occt_bottom_bosses", bottom, bottom_bosses(bottom)))
     mf = os.path.join(SHARED, "mfcad")
     if os.path.isdir(mf):
         index = json.load(open(os.path.join(mf, "index.json")))
@@ -184,6 +190,39 @@ def top_bosses(path):
     s = Part.read(path)
     axes = sorted((f.Surface.Center for f in s.Faces
                    if "Cylinder" in type(f.Surface).__name__ and abs(f.Surface.Radius - 4) < 1e-3),
+                  key=lambda c: (c.x, c.z))
+    return [[f"Face{i}" for i, f in enumerate(s.Faces, 1)
+             if f.BoundBox.XMin >= c.x - 12 and f.BoundBox.XMax <= c.x + 12
+             and f.BoundBox.ZMin >= c.z - 12 and f.BoundBox.ZMax <= c.z + 12] for c in axes]
+
+
+def ftc10_drilled_holes(path):
+    """NIST FTC-10's eight drilled holes, each a cylinder ending in the drill's 118-degree cone: six of
+    R1.23 (12 mm deep, axes along y) and two of R2.75 (27.5 and 35 mm deep, along x), 2.2-2.9 times
+    the small ones. Each instance is a cone and the cylinder that shares an edge with it; the
+    reference is the first small hole. Added in the twelfth session, with the split by name as for
+    every case."""
+    s = Part.read(path)
+    def edges(f):
+        return {e.hashCode() for e in f.Edges}
+    inst = []
+    for k, cone in enumerate(s.Faces, 1):
+        if "Cone" not in type(cone.Surface).__name__:
+            continue
+        cyl = [i for i, f in enumerate(s.Faces, 1) if "Cylinder" in type(f.Surface).__name__ and edges(f) & edges(cone)]
+        if len(cyl) == 1:
+            c = s.Faces[cyl[0] - 1].Surface
+            inst.append(((round(c.Radius, 2), round(c.Center.z, 1), round(c.Center.x, 1)), [f"Face{cyl[0]}", f"Face{k}"]))
+    return [faces for _, faces in sorted(inst)]
+
+
+def bottom_bosses(path):
+    """OCCT's Bottom.brep (the pump body under Top.brep, Debian occt-misc): its four bolt bosses, each
+    the faces within 12 mm (across the axis) of one of the four R4 bolt holes along y (6 faces each:
+    the hole, the boss's outer cylinder, its top and three blend faces). Added in the twelfth session."""
+    s = Part.read(path)
+    axes = sorted((f.Surface.Center for f in s.Faces if "Cylinder" in type(f.Surface).__name__
+                   and abs(f.Surface.Radius - 4) < 1e-3 and abs(abs(f.Surface.Axis.y) - 1) < 1e-6),
                   key=lambda c: (c.x, c.z))
     return [[f"Face{i}" for i, f in enumerate(s.Faces, 1)
              if f.BoundBox.XMin >= c.x - 12 and f.BoundBox.XMax <= c.x + 12
