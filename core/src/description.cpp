@@ -103,34 +103,10 @@ int ladder_steps(double scale, double ratio) {
 
 namespace {
 
-ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
-                               const ProgressFn& progress, const ShapeDescription::Impl* base) {
-  p.validate();
-  set_threads(p);
-  if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("describe: feature size must be > 0");
-  auto d = std::make_shared<ShapeDescription::Impl>();
-  d->role = role;
-  d->L = L;
-  d->params = p;
-  const bool is_ref = role == ShapeDescription::Role::Reference;
-  const std::string who = is_ref ? "reference" : "target";
-  const std::string& name = mesh.source.empty() ? who : mesh.source;
-  Stopwatch sw;
-
-  if (base) {
-    // Steps 1 and 2 as the base made them (same mesh, size, seed and parameters but ridge_rut_spacing).
-    d->dense_h = base->dense_h;
-    d->sparse_h = base->sparse_h;
-    d->dense = base->dense;
-    d->dense_normals = base->dense_normals;
-    d->dense_tree = base->dense_tree;
-    d->box_min = base->box_min;
-    d->box_max = base->box_max;
-    d->sparse_points = base->sparse_points;
-    d->sparse_normals = base->sparse_normals;
-    d->sparse_si = base->sparse_si;
-    d->warnings = base->warnings;
-  } else {
+// Steps 1 and 2 for a new description: dense and sparse samples, their normals, the kd-tree, the
+// sparse samples' shape index.
+void sample_and_index(const TriangleMesh& mesh, double L, const Params& p, const ProgressFn& progress, const std::string& who,
+                      const std::string& name, ShapeDescription::Impl* d, Stopwatch& sw) {
   // Step 1: dense and sparse samples.
   report(progress, who + ": sampling", 0);
   d->dense_h = p.dense_spacing * L;
@@ -188,6 +164,37 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
   }
   d->sparse_points = std::move(sparse.points);
   d->timings.push_back({who + "_shape_index", sw.lap()});
+}
+
+ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role role, double L, const Params& p,
+                               const ProgressFn& progress, const ShapeDescription::Impl* base) {
+  p.validate();
+  set_threads(p);
+  if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("describe: feature size must be > 0");
+  auto d = std::make_shared<ShapeDescription::Impl>();
+  d->role = role;
+  d->L = L;
+  d->params = p;
+  const bool is_ref = role == ShapeDescription::Role::Reference;
+  const std::string who = is_ref ? "reference" : "target";
+  const std::string& name = mesh.source.empty() ? who : mesh.source;
+  Stopwatch sw;
+
+  if (base) {
+    // Steps 1 and 2 as the base made them (same mesh, size, seed and parameters but ridge_rut_spacing).
+    d->dense_h = base->dense_h;
+    d->sparse_h = base->sparse_h;
+    d->dense = base->dense;
+    d->dense_normals = base->dense_normals;
+    d->dense_tree = base->dense_tree;
+    d->box_min = base->box_min;
+    d->box_max = base->box_max;
+    d->sparse_points = base->sparse_points;
+    d->sparse_normals = base->sparse_normals;
+    d->sparse_si = base->sparse_si;
+    d->warnings = base->warnings;
+  } else {
+    sample_and_index(mesh, L, p, progress, who, name, d.get(), sw);
   }
 
   // Step 3: key points.
@@ -214,7 +221,6 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
       key_si.push_back(si);
     }
   }
-
 
   // Step 2c: multi-radius SHOT at key points, dense samples as support.
   d->m = p.shot_radii;
