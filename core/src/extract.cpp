@@ -420,9 +420,12 @@ void check_sizes(const TriangleMesh& reference, const TriangleMesh& target, cons
 // are ruts and ridges; a drilled hole, a slot, a step). When they find nothing, or the reference has
 // too few of them to be searched at all, the search is repeated once with ridge and rut key points
 // (ridge_rut_fallback); the result says so, and its parameters are the ones that found it.
+// A search with these parameters may fall back to ridge and rut key points (it has not already).
+bool can_fall_back(const Params& p) { return p.ridge_rut_fallback > 0 && !(p.ridge_rut_spacing > 0); }
+
 template <class Run>
 Result with_fallback(const Params& params, Run run) {
-  const bool can_fall_back = params.ridge_rut_fallback > 0 && !(params.ridge_rut_spacing > 0);
+  const bool can_fall_back = fe::can_fall_back(params);
   Result res;
   std::string why;
   try {
@@ -645,7 +648,7 @@ Result extract(const TriangleMesh& reference, const TriangleMesh& target, const 
   Descriptions first;
   return search(reference, target, params_in, progress, [&](double L, const Params& params, const ProgressFn& checked) {
     auto t = describe_target(target, L, params, checked, first);
-    if (first.empty() && params.ridge_rut_fallback > 0 && !(params.ridge_rut_spacing > 0)) first.emplace_back(description_key(L, params), t);
+    if (first.empty() && can_fall_back(params)) first.emplace_back(description_key(L, params), t);
     return t;
   });
 }
