@@ -32,11 +32,15 @@ std::vector<Match> merge_instances(std::vector<Instance> found, double max_overl
 /// Two matches are one instance when they share more than max_overlap of the smaller one's faces
 /// (triangles for mesh input; boxes when neither is listed).
 bool same_instance(const Match& a, const Match& b, double max_overlap);
+/// How much two matches share: the Jaccard index of their faces (triangles for mesh input; of their
+/// boxes' volumes when neither is listed).
+double overlap_share(const Match& a, const Match& b);
 
 /// Matches of the mirrored reference join the result: their H maps the original reference (H M),
 /// and where a mirrored and a direct match are the same instance the better score wins (the direct
 /// one unless the mirrored one scores 0.02 more, so that a symmetric feature is never reported as
-/// mirrored). Counts and timings are added.
+/// mirrored). A joining match that is the same instance as several is that one it shares most with
+/// (overlap_share). Counts and timings are added.
 void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p);
 
 /// Scale bands. One pass of the search covers instances kBandScaleMin to kBandScaleMax times the

@@ -450,6 +450,46 @@ TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
   EXPECT_FALSE(fe::same_instance(r.matches[0], r.matches[1], p.max_overlap));
 }
 
+// Found on FTC-10's drilled holes (development): a large hole's match lists, among its faces, the
+// tiny cone of a small hole whose tip lies next to it. The small hole's mirrored match shares that one
+// face with it, which is "the same instance" by the smaller's share; it replaced the large hole (it
+// scored 0.05 more) and duplicated the small hole's direct match. A joining match is the instance it
+// shares most with.
+TEST(MergeStage, AJoiningMatchIsTheInstanceItSharesMostWith) {
+  fe::Params p;
+  fe::Match large, small;
+  large.faces = {175, 176, 191, 193, 195, 197};
+  large.score = 0.948;
+  large.center = Eigen::Vector3d(36.6, 15.9, -25.0);  // first in center order
+  small.faces = {191, 192};
+  small.score = 0.95;
+  small.center = Eigen::Vector3d(42.8, 19.1, -29.7);
+  fe::Match m = small;
+  m.score = 0.997;
+  ASSERT_TRUE(fe::same_instance(m, large, p.max_overlap));  // one shared face of the smaller's two
+  EXPECT_LT(fe::overlap_share(m, large), fe::overlap_share(m, small));
+  EXPECT_DOUBLE_EQ(fe::overlap_share(m, small), 1.0);
+  for (double direct_score : {0.95, 0.999}) {
+    fe::Result r;
+    small.score = direct_score;
+    r.matches = {large, small};
+    fe::Result mirrored;
+    mirrored.matches = {m};
+    fe::merge_mirrored(r, mirrored, Eigen::Matrix4d::Identity(), p);
+    ASSERT_EQ(r.matches.size(), 2u) << direct_score;
+    int large_kept = 0, small_ones = 0;
+    for (const fe::Match& x : r.matches) {
+      large_kept += x.faces == large.faces;
+      small_ones += x.faces == small.faces;
+    }
+    EXPECT_EQ(large_kept, 1) << direct_score;
+    EXPECT_EQ(small_ones, 1) << direct_score;
+    // the mirrored one replaces the small hole's direct match only when it is clearly better
+    for (const fe::Match& x : r.matches)
+      if (x.faces == small.faces) EXPECT_EQ(x.mirrored, direct_score < 0.97) << direct_score;
+  }
+}
+
 }  // namespace
 
 // The ridge-and-rut fallback's target description reuses the first pass's (describe_reusing): it must
