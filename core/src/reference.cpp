@@ -36,8 +36,12 @@ int find_root(std::vector<int>& parent, int i) {
 }
 
 // Share of an open region's border length that must lie along a bounding-box side for the side to
-// count as cut.
+// count as cut; or, as a share of the side's shorter extent, the border that crosses it (one plane
+// clipped across the whole side is a cut, however much border the region has elsewhere: FTC-10's
+// drilled hole, whose box took a pocket corner and the part's face beyond it, ran 0.097 of its
+// border along -z, the whole width of that side).
 constexpr double kBorderShare = 0.1;
+constexpr double kSideSpan = 0.5;
 
 }  // namespace
 
@@ -96,7 +100,11 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
           }
       }
     }
-    for (std::size_t s = 0; s < 6; ++s) out.cut_sides[s] = along[s] >= kBorderShare * open;
+    for (std::size_t s = 0; s < 6; ++s) {
+      const int axis = static_cast<int>(s / 2);
+      const double span = std::min(hi((axis + 1) % 3) - lo((axis + 1) % 3), hi((axis + 2) % 3) - lo((axis + 2) % 3));
+      out.cut_sides[s] = along[s] >= kBorderShare * open || along[s] >= kSideSpan * span;
+    }
     return out;
   }
 

@@ -87,6 +87,23 @@ TEST(CutFaces, StlRegionClippedByABoxIsOpenAndCutAlongItsBorder) {
   EXPECT_FALSE(c.cut_sides[5]);  // the rib's top
 }
 
+TEST(CutFaces, APlaneClippedAcrossAWholeSideIsCutThereThoughTheRegionHasMuchBorderElsewhere) {
+  // NIST FTC-10's first drilled hole (faces 193-194: x 30.7-33.1, y 14.3-27, z -31.2 to -28.8) clipped
+  // with the bench's box (its faces' box grown by 0.2 of its diagonal), as from an STL. The box took a
+  // pad's corner and the part's face beyond it (y = 23), which crosses the -z side from end to end: 7.7
+  // mm, yet only 0.097 of the region's border, most of which runs along -x, +x and +z. That side was
+  // taken as surface, the pad's corner there was judged as feature, and the two larger holes, whose
+  // surroundings differ, failed the fit (issue 9).
+  const fe::TriangleMesh part = fe::read_shape(std::string(FE_REAL_DIR) + "/nist_ftc_10_asme1_rb.stp", fe::tessellation_for_feature(13.2));
+  const fe::TriangleMesh ref = fe_test::clip_to_box(part, {28.03, 11.62, -33.87}, {35.77, 29.64, -26.13});
+  ASSERT_GT(ref.triangles.rows(), 100);
+  const fe::CutFaces c = fe::detect_cut_faces(ref);
+  EXPECT_FALSE(c.closed);
+  for (int s : {0, 1, 4, 5}) EXPECT_TRUE(c.cut_sides[static_cast<std::size_t>(s)]) << "side " << s;
+  EXPECT_FALSE(c.cut_sides[2]);  // nothing crosses -y: the drill point ends in the solid above it
+  EXPECT_FALSE(c.cut_sides[3]);  // the pad's top (y = 27) is the highest surface, inside the box
+}
+
 TEST(CutFaces, AClosedBoxIsAFeatureNotAllCut) {
   const fe::CutFaces closed = fe::detect_cut_faces(cube(false));
   EXPECT_TRUE(closed.closed);
