@@ -77,6 +77,7 @@ def base_cases(build):
     ctc02 = os.path.join(SHARED, "real", "nist_ctc_02_asme1_rc.stp")
     if os.path.exists(ctc02):
         out.append(("ctc02_lugs", ctc02, ctc02_lugs(ctc02)))
+        out.append(("ctc02_drilled_holes", ctc02, ctc02_drilled_holes(ctc02)))
     ctc01 = os.path.join(SHARED, "real", "nist_ctc_01_asme1_rd.stp")
     if os.path.exists(ctc01):
         out.append(("ctc01_round_holes", ctc01, ctc01_round_holes(ctc01)))
@@ -213,6 +214,44 @@ def ftc10_drilled_holes(path):
         if len(cyl) == 1:
             c = s.Faces[cyl[0] - 1].Surface
             inst.append(((round(c.Radius, 2), round(c.Center.z, 1), round(c.Center.x, 1)), [f"Face{cyl[0]}", f"Face{k}"]))
+    return [faces for _, faces in sorted(inst)]
+
+
+def ctc02_drilled_holes(path):
+    """NIST CTC-02's 72 drilled blind holes, each a cylinder ending in the drill's cone, both split in
+    two halves by the STEP file (4 faces): 42 of R4.19 (along z and along x) and 30 of R5.05 (along
+    z), 1.2 times the small ones. An instance is a set of hole cylinders and cones, of any radius,
+    joined by shared edges on one axis; the reference is the first small hole in (radius, x, y, z)
+    order of its axis point. Added in the thirteenth session: the part's most repeated feature, and
+    the one meshing rules name first (a washer ring around every bolt hole)."""
+    s = Part.read(path)
+    def edges(f):
+        return {e.hashCode() for e in f.Edges}
+    idx = [i for i, f in enumerate(s.Faces, 1) if "Cone" in type(f.Surface).__name__
+           or ("Cylinder" in type(f.Surface).__name__ and _is_hole(f, f.Surface) and f.Surface.Radius < 6)]
+    parent = {i: i for i in idx}
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    E = {i: edges(s.Faces[i - 1]) for i in idx}
+    for a in idx:
+        for b in idx:
+            fa, fb = s.Faces[a - 1].Surface, s.Faces[b - 1].Surface
+            if a < b and E[a] & E[b] and abs(abs(fa.Axis.dot(fb.Axis)) - 1) < 1e-6 and (fa.Center - fb.Center).cross(fa.Axis).Length < 1e-3:
+                parent[find(a)] = find(b)
+    comp = {}
+    for i in idx:
+        comp.setdefault(find(i), []).append(i)
+    inst = []
+    for faces in comp.values():
+        cyl = [s.Faces[i - 1].Surface for i in faces if "Cylinder" in type(s.Faces[i - 1].Surface).__name__]
+        if len(cyl) != 2 or len(faces) != 4:
+            continue  # a countersink or a cone alone: not a drilled hole
+        c, a = cyl[0].Center, cyl[0].Axis
+        p = c - a * c.dot(a)  # the axis's point nearest the origin
+        inst.append(((round(cyl[0].Radius, 2), round(p.x, 2), round(p.y, 2), round(p.z, 2)), [f"Face{i}" for i in sorted(faces)]))
     return [faces for _, faces in sorted(inst)]
 
 
