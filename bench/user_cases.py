@@ -131,6 +131,11 @@ def _full_cylinders(shape):
     return out
 
 
+def _edge_keys(face):
+    """The face's edges, comparable between faces of one shape (shared edges have one key)."""
+    return {e.hashCode() for e in face.Edges}
+
+
 def _is_hole(face, cyl):
     """Does the cylindrical face look toward its axis (material outside: a hole)?"""
     u0, u1, v0, v1 = face.ParameterRange
@@ -204,13 +209,11 @@ def ftc10_drilled_holes(path):
     reference is the first small hole. Added in the twelfth session, with the split by name as for
     every case."""
     s = Part.read(path)
-    def edges(f):
-        return {e.hashCode() for e in f.Edges}
     inst = []
     for k, cone in enumerate(s.Faces, 1):
         if "Cone" not in type(cone.Surface).__name__:
             continue
-        cyl = [i for i, f in enumerate(s.Faces, 1) if "Cylinder" in type(f.Surface).__name__ and edges(f) & edges(cone)]
+        cyl = [i for i, f in enumerate(s.Faces, 1) if "Cylinder" in type(f.Surface).__name__ and _edge_keys(f) & _edge_keys(cone)]
         if len(cyl) == 1:
             c = s.Faces[cyl[0] - 1].Surface
             inst.append(((round(c.Radius, 2), round(c.Center.z, 1), round(c.Center.x, 1)), [f"Face{cyl[0]}", f"Face{k}"]))
@@ -225,8 +228,6 @@ def ctc02_drilled_holes(path):
     order of its axis point. Added in the thirteenth session: the part's most repeated feature, and
     the one meshing rules name first (a washer ring around every bolt hole)."""
     s = Part.read(path)
-    def edges(f):
-        return {e.hashCode() for e in f.Edges}
     idx = [i for i, f in enumerate(s.Faces, 1) if "Cone" in type(f.Surface).__name__
            or ("Cylinder" in type(f.Surface).__name__ and _is_hole(f, f.Surface) and f.Surface.Radius < 6)]
     parent = {i: i for i in idx}
@@ -235,7 +236,7 @@ def ctc02_drilled_holes(path):
             parent[i] = parent[parent[i]]
             i = parent[i]
         return i
-    E = {i: edges(s.Faces[i - 1]) for i in idx}
+    E = {i: _edge_keys(s.Faces[i - 1]) for i in idx}
     for a in idx:
         for b in idx:
             fa, fb = s.Faces[a - 1].Surface, s.Faces[b - 1].Surface

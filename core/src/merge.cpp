@@ -57,39 +57,44 @@ std::vector<Match> merge_instances(std::vector<Instance> found, double max_overl
   return out;
 }
 
-bool same_instance(const Match& a, const Match& b, double max_overlap) {
-  auto shared = [&](std::vector<int> x, std::vector<int> y) {
+namespace {
+// What two matches share, and how large each is: faces listed, else triangles (mesh input), else
+// their boxes' volumes (each side grown by 1 % of both diagonals when `padded`, so that flat boxes
+// still overlap). same_instance and overlap_share judge the same measure two ways.
+struct Shared {
+  double both = 0, a = 0, b = 0;
+};
+Shared shared(const Match& a, const Match& b, bool padded) {
+  auto lists = [](std::vector<int> x, std::vector<int> y) {
     std::sort(x.begin(), x.end());
     std::sort(y.begin(), y.end());
     std::vector<int> both;
     std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
-    return static_cast<double>(both.size()) > max_overlap * static_cast<double>(std::min(x.size(), y.size()));
+    return Shared{static_cast<double>(both.size()), static_cast<double>(x.size()), static_cast<double>(y.size())};
   };
-  if (!a.faces.empty() && !b.faces.empty()) return shared(a.faces, b.faces);
-  if (!a.triangles.empty() && !b.triangles.empty()) return shared(a.triangles, b.triangles);
+  if (!a.faces.empty() && !b.faces.empty()) return lists(a.faces, b.faces);
+  if (!a.triangles.empty() && !b.triangles.empty()) return lists(a.triangles, b.triangles);
+  const double pad = padded ? 1e-9 + 0.01 * ((a.bbox_max - a.bbox_min).norm() + (b.bbox_max - b.bbox_min).norm()) : 0.0;
+  auto vol = [&](const Eigen::Vector3d& l, const Eigen::Vector3d& h) {
+    const Eigen::Array3d e = (h - l).array() + pad;
+    return padded ? e.prod() : e.max(0.0).prod();
+  };
+  Shared out{0, vol(a.bbox_min, a.bbox_max), vol(b.bbox_min, b.bbox_max)};
   const Eigen::Vector3d lo = a.bbox_min.cwiseMax(b.bbox_min), hi = a.bbox_max.cwiseMin(b.bbox_max);
-  if ((lo.array() > hi.array()).any()) return false;
-  const double pad = 1e-9 + 0.01 * ((a.bbox_max - a.bbox_min).norm() + (b.bbox_max - b.bbox_min).norm());
-  auto vol = [&](const Eigen::Vector3d& l, const Eigen::Vector3d& h) { return ((h - l).array() + pad).prod(); };
-  return vol(lo, hi) > max_overlap * std::min(vol(a.bbox_min, a.bbox_max), vol(b.bbox_min, b.bbox_max));
+  if (!(lo.array() > hi.array()).any()) out.both = vol(lo, hi);
+  return out;
+}
+}  // namespace
+
+bool same_instance(const Match& a, const Match& b, double max_overlap) {
+  const Shared s = shared(a, b, true);
+  return s.both > 0 && s.both > max_overlap * std::min(s.a, s.b);
 }
 
 double overlap_share(const Match& a, const Match& b) {
-  auto jaccard = [](std::vector<int> x, std::vector<int> y) {
-    std::sort(x.begin(), x.end());
-    std::sort(y.begin(), y.end());
-    std::vector<int> both;
-    std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
-    const double all = static_cast<double>(x.size() + y.size() - both.size());
-    return all > 0 ? static_cast<double>(both.size()) / all : 0.0;
-  };
-  if (!a.faces.empty() && !b.faces.empty()) return jaccard(a.faces, b.faces);
-  if (!a.triangles.empty() && !b.triangles.empty()) return jaccard(a.triangles, b.triangles);
-  const Eigen::Vector3d lo = a.bbox_min.cwiseMax(b.bbox_min), hi = a.bbox_max.cwiseMin(b.bbox_max);
-  if ((lo.array() > hi.array()).any()) return 0.0;
-  auto vol = [](const Eigen::Vector3d& l, const Eigen::Vector3d& h) { return (h - l).cwiseMax(Eigen::Vector3d::Zero()).prod(); };
-  const double inter = vol(lo, hi), all = vol(a.bbox_min, a.bbox_max) + vol(b.bbox_min, b.bbox_max) - inter;
-  return all > 0 ? inter / all : 0.0;
+  const Shared s = shared(a, b, false);
+  const double all = s.a + s.b - s.both;
+  return all > 0 ? s.both / all : 0.0;
 }
 
 namespace {
