@@ -101,6 +101,35 @@ int ladder_steps(double scale, double ratio) {
 
 }  // namespace
 
+double dense_coarsening(const TriangleMesh& mesh, double L, const Params& p, const std::string& name) {
+  const double h = p.dense_spacing * L;
+  const double area = mesh_area(mesh);
+  const double expected = area / (h * h);
+  if (!(expected > static_cast<double>(p.max_dense_points))) return 1.0;
+  const double f = std::sqrt(expected / static_cast<double>(p.max_dense_points));
+  if (f > 10) {
+    // Samples 10x coarser than the feature needs cannot show it: refuse instead of working long for
+    // nothing (a 10 mm boss on a 4 m part, or coordinates corrupted along one axis).
+    std::ostringstream m;
+    m.precision(3);
+    m << name << ": the surface is too large for a feature of this size (area " << area << ", " << area / (L * L)
+      << " times the feature's squared size): the samples would be " << f
+      << "x coarser than the feature needs; search a region of the part, or raise max_dense_points";
+    throw InputError(m.str());
+  }
+  return f * (1 + 1e-9);
+}
+
+Params coarsened(const Params& p, double f) {
+  Params c = p;
+  if (!(f > 1)) return c;
+  c.sparse_spacing *= f;  // before dense_spacing: validate() wants dense <= sparse at every step
+  c.dense_spacing *= f;
+  c.normal_radius *= f;
+  c.curvature_radius *= f;
+  return c;
+}
+
 namespace {
 
 // Steps 1 and 2 for a new description: dense and sparse samples, their normals, the kd-tree, the
@@ -111,25 +140,13 @@ void sample_and_index(const TriangleMesh& mesh, double L, const Params& p, const
   report(progress, who + ": sampling", 0);
   d->dense_h = p.dense_spacing * L;
   d->sparse_h = p.sparse_spacing * L;
-  const double area = mesh_area(mesh);
-  const double expected = area / (d->dense_h * d->dense_h);
-  if (expected > static_cast<double>(p.max_dense_points)) {
-    const double f = std::sqrt(expected / static_cast<double>(p.max_dense_points));
-    if (f > 10) {
-      // Samples 10x coarser than the feature needs cannot show it: refuse instead of working long for
-      // nothing (a 10 mm boss on a 4 m part, or coordinates corrupted along one axis).
-      std::ostringstream m;
-      m.precision(3);
-      m << name << ": the surface is too large for a feature of this size (area " << area << ", " << area / (L * L)
-        << " times the feature's squared size): the samples would be " << f
-        << "x coarser than the feature needs; search a region of the part, or raise max_dense_points";
-      throw InputError(m.str());
-    }
+  const double f = dense_coarsening(mesh, L, p, name);
+  if (f > 1) {
     d->dense_h *= f;
     d->sparse_h = std::max(d->sparse_h, 2.5 * d->dense_h);
     std::ostringstream w;
-    w << name << ": surface too large for the dense spacing (" << static_cast<long long>(expected)
-      << " samples > max_dense_points); spacing increased " << f << "x, small features may be missed";
+    w << name << ": surface too large for the dense spacing (more than max_dense_points samples); spacing increased " << f
+      << "x, small features may be missed";
     d->warnings.push_back(w.str());
   }
   d->dense = sample_surface(mesh, d->dense_h, p.seed);

@@ -76,6 +76,17 @@ struct Stopwatch {
   }
 };
 
+/// How many times coarser than p.dense_spacing the dense samples of `mesh` must be, for a feature of
+/// size L, to stay within p.max_dense_points (1 when they fit). Throws InputError naming `name` when
+/// they would be more than 10x coarser: such samples cannot show the feature.
+double dense_coarsening(const TriangleMesh& mesh, double L, const Params& p, const std::string& name);
+
+/// p with the sample spacings and the neighbourhood radii of normals and curvature f times larger:
+/// the same number of samples per neighbourhood at a coarser spacing. A target that must be sampled
+/// coarser is matched with a reference described by the same parameters, so that both sides' normals,
+/// shape index and SHOT see the same density (extract()).
+Params coarsened(const Params& p, double f);
+
 /// Distance from p to a shape's sampled surface: point-to-plane at the nearest dense sample, with the
 /// tangential offset beyond one sample spacing added back (so points off the edge of a surface
 /// count). The nearest sample's index in *nearest (-1 if none); +inf for an empty shape.

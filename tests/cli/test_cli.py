@@ -221,7 +221,7 @@ class Cli(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         with open(self.out, encoding="utf-8") as f:
             j = json.load(f, parse_constant=no_nan)
-        self.assertTrue(any("spacing increased" in w and "\ufffd" in w for w in j["warnings"]), j["warnings"])
+        self.assertTrue(any("described" in w and "coarser" in w and "\ufffd" in w for w in j["warnings"]), j["warnings"])
 
     def test_unwritable_output_exits_4(self):
         r = run("extract", "-q", "-r", REF, "-t", os.path.join(MODELS, "boss_only.step"), "-o", "/nonexistent/dir/out.json")

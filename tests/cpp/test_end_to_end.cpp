@@ -246,37 +246,78 @@ TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
 // 25 mm, four of 35 mm and 100 deep (1.4x wider, 2x deeper), two drilled 20 mm blind holes along y.
 // Each is found once and nothing else: the box-cut hole took two fits on a 100 mm hole, over its
 // upper and its lower part, until instances were also merged by the faces they lie on (same_touched).
-TEST(EndToEnd, RoundHolesOfThreeSizesAreEachFoundOnce) {
-  const std::string part = std::string(FE_REAL_DIR) + "/nist_ctc_01_asme1_rd.stp";
-  const fe::TriangleMesh whole = fe::read_shape(part);
+namespace {
+// NIST CTC-01's ten round holes of three sizes (x and y or z of their axes), and its Face82, one hole.
+struct Hole {
+  double a, b;  // the axis: (x, y) for the holes along z, (x, z) for those along y
+  bool along_y;
+};
+const std::vector<Hole> kCtc01Holes = {{-160, -45, false}, {-160, 45, false}, {160, -45, false}, {160, 45, false}, {-325, -175, false},
+                                       {-325, 175, false}, {325, -175, false}, {325, 175, false}, {-30, -25, true},   {30, -25, true}};
+const std::string kCtc01 = std::string(FE_REAL_DIR) + "/nist_ctc_01_asme1_rd.stp";
+
+fe::TriangleMesh ctc01_picked_hole(const fe::TriangleMesh& whole) {
   std::vector<char> drop(static_cast<std::size_t>(whole.triangles.rows()), 1);
   for (Eigen::Index t = 0; t < whole.triangles.rows(); ++t)
     if (whole.face_ids(t) == 82) drop[static_cast<std::size_t>(t)] = 0;
-  const fe::TriangleMesh picked = fe::without_triangles(whole, drop);
+  return fe::without_triangles(whole, drop);
+}
+
+// Each of CTC-01's holes is matched exactly once, and nothing else is.
+void expect_each_ctc01_hole_once(const fe::Result& r, const std::string& style) {
+  std::vector<int> per_hole(kCtc01Holes.size(), 0);
+  for (const fe::Match& mt : r.matches) {
+    int on = -1;
+    for (std::size_t h = 0; h < kCtc01Holes.size(); ++h) {
+      const double u = mt.center.x(), v = kCtc01Holes[h].along_y ? mt.center.z() : mt.center.y();
+      if (std::abs(u - kCtc01Holes[h].a) < 3 && std::abs(v - kCtc01Holes[h].b) < 3) on = static_cast<int>(h);
+    }
+    EXPECT_GE(on, 0) << style << ": a match off the holes at " << mt.center.transpose();
+    if (on >= 0) ++per_hole[static_cast<std::size_t>(on)];
+  }
+  for (std::size_t h = 0; h < kCtc01Holes.size(); ++h)
+    EXPECT_EQ(per_hole[h], 1) << style << ": hole at (" << kCtc01Holes[h].a << ", " << kCtc01Holes[h].b << ")";
+}
+
+double surface_area(const fe::TriangleMesh& m) {
+  double a = 0;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const Eigen::Vector3d p = m.vertices.row(m.triangles(t, 0)), q = m.vertices.row(m.triangles(t, 1)), r = m.vertices.row(m.triangles(t, 2));
+    a += 0.5 * (q - p).cross(r - p).norm();
+  }
+  return a;
+}
+}  // namespace
+
+TEST(EndToEnd, RoundHolesOfThreeSizesAreEachFoundOnce) {
+  const fe::TriangleMesh picked = ctc01_picked_hole(fe::read_shape(kCtc01));
   const fe::TriangleMesh boxcut = fe::read_shape(models() + "/suite/ctc01_hole_boxcut_reference.brep");
-  struct Hole {
-    double a, b;  // the axis: (x, y) for the holes along z, (x, z) for those along y
-    bool along_y;
-  };
-  const std::vector<Hole> holes = {{-160, -45, false}, {-160, 45, false}, {160, -45, false}, {160, 45, false}, {-325, -175, false},
-                                   {-325, 175, false}, {325, -175, false}, {325, 175, false}, {-30, -25, true},   {30, -25, true}};
   for (const fe::TriangleMesh* ref : {&picked, &boxcut}) {
     const std::string style = ref == &picked ? "picked" : "box cut";
-    const fe::TriangleMesh target = fe::read_shape(part, fe::tessellation_for_feature(ref->diagonal()));
-    const fe::Result r = fe::extract(*ref, target);
-    std::vector<int> per_hole(holes.size(), 0);
-    for (const fe::Match& mt : r.matches) {
-      int on = -1;
-      for (std::size_t h = 0; h < holes.size(); ++h) {
-        const double u = mt.center.x(), v = holes[h].along_y ? mt.center.z() : mt.center.y();
-        if (std::abs(u - holes[h].a) < 3 && std::abs(v - holes[h].b) < 3) on = static_cast<int>(h);
-      }
-      EXPECT_GE(on, 0) << style << ": a match off the holes at " << mt.center.transpose();
-      if (on >= 0) ++per_hole[static_cast<std::size_t>(on)];
-    }
-    for (std::size_t h = 0; h < holes.size(); ++h)
-      EXPECT_EQ(per_hole[h], 1) << style << ": hole at (" << holes[h].a << ", " << holes[h].b << ")";
+    const fe::TriangleMesh target = fe::read_shape(kCtc01, fe::tessellation_for_feature(ref->diagonal()));
+    expect_each_ctc01_hole_once(fe::extract(*ref, target), style);
   }
+}
+
+// A part too large for the dense spacing at the feature's size (more than max_dense_points samples)
+// is sampled coarser. Sampling only the target coarser left its normals a sample or two each and its
+// descriptors unlike the reference's: with the cap set so that the samples are 3x coarser, 3 of
+// CTC-01's 10 holes were found. Described both 3x coarser (spacings, normal and curvature radii),
+// reference and target see the same density: all 10.
+TEST(EndToEnd, OnAPartTooLargeForTheDenseSpacingTheReferenceIsDescribedAsCoarse) {
+  const fe::TriangleMesh ref = ctc01_picked_hole(fe::read_shape(kCtc01));
+  const fe::TriangleMesh target = fe::read_shape(kCtc01, fe::tessellation_for_feature(ref.diagonal()));
+  fe::Params p;
+  const double h = p.dense_spacing * ref.diagonal();
+  p.max_dense_points = static_cast<std::size_t>(surface_area(target) / (h * h) / 9);  // 3x coarser
+  const fe::Result r = fe::extract(ref, target, p);
+  EXPECT_TRUE(std::any_of(r.warnings.begin(), r.warnings.end(),
+                          [](const std::string& w) { return w.find("both described 3") != std::string::npos; }));
+  EXPECT_LE(static_cast<double>(r.target.dense_points), 1.1 * static_cast<double>(p.max_dense_points));  // an estimate from the area
+  const double ref_h = std::sqrt(surface_area(ref) / static_cast<double>(r.reference.dense_points));
+  EXPECT_GT(ref_h, 2.0 * h);  // the reference's samples are as coarse as the target's (they were h)
+  EXPECT_EQ(r.params.dense_spacing, fe::Params{}.dense_spacing);  // the result reports what was asked for
+  expect_each_ctc01_hole_once(r, "3x coarser");
 }
 
 // Issue 9's scale range, 1/3 to 3 times the reference (scale_min, scale_max): one pass covers
