@@ -528,7 +528,19 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     const std::string tname = target.source.empty() ? std::string("target") : target.source;
     const double f = dense_coarsening(target, L, asked, tname);
     const Params params = coarsened(asked, f);
-    const ShapeDescription r = describe(ref, ShapeDescription::Role::Reference, L, params, progress);
+    auto describe_reference = [&](const TriangleMesh& m) {
+      try {
+        return describe(m, ShapeDescription::Role::Reference, L, params, progress);
+      } catch (const NoKeyPoints& e) {
+        if (!(f > 1)) throw;
+        std::ostringstream w;
+        w.precision(3);
+        w << e.what() << " (described " << f << "x coarser than the defaults because " << tname
+          << " is too large for the dense spacing of this feature: search a region of the part, or raise max_dense_points)";
+        throw NoKeyPoints(w.str());
+      }
+    };
+    const ShapeDescription r = describe_reference(ref);
     const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
     Result out = match_core(r, *t, target, params, progress, core);
     if (params.mirror) {
@@ -537,7 +549,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       if (!out.reference_mirror_symmetric) {
         Eigen::Matrix4d M;
         const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
-        const ShapeDescription rm = describe(mirrored_mesh(ref, c, &M), ShapeDescription::Role::Reference, L, params, progress);
+        const ShapeDescription rm = describe_reference(mirrored_mesh(ref, c, &M));
         FeatureCore fm = core;  // the mirror image's core: reflected through x = c.x()
         if (core.set) {
           fm.lo.x() = 2 * c.x() - core.hi.x();

@@ -39,7 +39,7 @@ const std::vector<Entry>& entries() {
   static const std::vector<Entry> e = {
       {kSampling, "dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
       {kSampling, "sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
-      {kSampling, "max_dense_points", &Params::max_dense_points, "count", "cap on dense samples per shape; spacing grows beyond it", 1000, 5e7},
+      {kSampling, "max_dense_points", &Params::max_dense_points, "count", "cap on the target's dense samples; beyond it both shapes are described coarser (spacings and normal and curvature radii alike), with a warning", 1000, 5e7},
       {kSampling, "normal_radius", &Params::normal_radius, "x L", "support radius of PCA normals", 1e-4, 0.5},
       {kDescriptors, "curvature_radius", &Params::curvature_radius, "x L", "support radius of the quadric fit for principal curvatures", 1e-4, 0.5},
       {kDescriptors, "planar_curvedness", &Params::planar_curvedness, "1/L", "curvedness x L below which a point is planar (shape index -1)", 0, 1e6},

@@ -18,7 +18,7 @@ struct Params {
   // --- step 1: sampling (x L)
   double dense_spacing = 0.014;  ///< spacing of the dense samples (support of descriptors, validation)
   double sparse_spacing = 0.035; ///< spacing of the sparse samples (candidate key points)
-  std::size_t max_dense_points = 2000000;  ///< cap; spacing grows (with a warning) beyond it
+  std::size_t max_dense_points = 2000000;  ///< cap; beyond it reference and target are both described coarser (with a warning)
 
   // --- step 2: descriptors (x L unless said otherwise)
   double normal_radius = 0.035;     ///< PCA normal support radius
