@@ -62,7 +62,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   }
   // Every stage runs, with fewer samples and RANSAC iterations than the defaults so that an
-  // instrumented run takes seconds. The dense samples are capped (max_dense_points: the spacing grows,
+  // instrumented run takes seconds. The dense samples are capped (max_dense_points: both shapes are described coarser,
   // with a warning) as a user's huge target is, so a mutation that stretches the surface is bounded.
   fe::Params p;
   p.threads = 1;
