@@ -83,8 +83,6 @@ std::vector<std::pair<const char*, double>> descriptor_parameters(const Params& 
           {"topology_hypotheses", p.topology_hypotheses ? 1.0 : 0.0}};
 }
 
-namespace {
-
 double mesh_area(const TriangleMesh& m) {
   double a = 0;
   for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
@@ -94,6 +92,8 @@ double mesh_area(const TriangleMesh& m) {
   }
   return a;
 }
+
+namespace {
 
 int ladder_steps(double scale, double ratio) {
   return std::max(0, static_cast<int>(std::ceil(std::log(scale) / std::log(ratio) - 1e-9)));

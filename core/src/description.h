@@ -76,6 +76,9 @@ struct Stopwatch {
   }
 };
 
+/// Surface area of a triangle mesh.
+double mesh_area(const TriangleMesh& m);
+
 /// How many times coarser than p.dense_spacing the dense samples of `mesh` must be, for a feature of
 /// size L, to stay within p.max_dense_points (1 when they fit). Throws InputError naming `name` when
 /// they would be more than 10x coarser: such samples cannot show the feature.

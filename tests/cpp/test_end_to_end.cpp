@@ -4,6 +4,7 @@
 #include "featureextract/io.h"
 #include "featureextract/reference.h"
 
+#include "description.h"  // mesh_area
 #include "test_util.h"
 
 #include <Eigen/Dense>
@@ -240,12 +241,6 @@ TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
   EXPECT_TRUE(std::any_of(loose.matches.begin(), loose.matches.end(), on_slot));
 }
 
-// NIST CTC-01's round holes (issue 9: holes of several radii, the most common feature of meshing
-// rules): the reference is one 25 mm hole, 50 deep, picked as its wall (one cylindrical face) or cut
-// out with a box (a block with the hole; fe_make_models --real). The part has ten round holes: four of
-// 25 mm, four of 35 mm and 100 deep (1.4x wider, 2x deeper), two drilled 20 mm blind holes along y.
-// Each is found once and nothing else: the box-cut hole took two fits on a 100 mm hole, over its
-// upper and its lower part, until instances were also merged by the faces they lie on (same_touched).
 namespace {
 // NIST CTC-01's ten round holes of three sizes (x and y or z of their axes), and its Face82, one hole.
 struct Hole {
@@ -278,17 +273,14 @@ void expect_each_ctc01_hole_once(const fe::Result& r, const std::string& style) 
   for (std::size_t h = 0; h < kCtc01Holes.size(); ++h)
     EXPECT_EQ(per_hole[h], 1) << style << ": hole at (" << kCtc01Holes[h].a << ", " << kCtc01Holes[h].b << ")";
 }
-
-double surface_area(const fe::TriangleMesh& m) {
-  double a = 0;
-  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
-    const Eigen::Vector3d p = m.vertices.row(m.triangles(t, 0)), q = m.vertices.row(m.triangles(t, 1)), r = m.vertices.row(m.triangles(t, 2));
-    a += 0.5 * (q - p).cross(r - p).norm();
-  }
-  return a;
-}
 }  // namespace
 
+// NIST CTC-01's round holes (issue 9: holes of several radii, the most common feature of meshing
+// rules): the reference is one 25 mm hole, 50 deep, picked as its wall (one cylindrical face) or cut
+// out with a box (a block with the hole; fe_make_models --real). The part has ten round holes: four of
+// 25 mm, four of 35 mm and 100 deep (1.4x wider, 2x deeper), two drilled 20 mm blind holes along y.
+// Each is found once and nothing else: the box-cut hole took two fits on a 100 mm hole, over its
+// upper and its lower part, until instances were also merged by the faces they lie on (same_touched).
 TEST(EndToEnd, RoundHolesOfThreeSizesAreEachFoundOnce) {
   const fe::TriangleMesh picked = ctc01_picked_hole(fe::read_shape(kCtc01));
   const fe::TriangleMesh boxcut = fe::read_shape(models() + "/suite/ctc01_hole_boxcut_reference.brep");
@@ -309,12 +301,12 @@ TEST(EndToEnd, OnAPartTooLargeForTheDenseSpacingTheReferenceIsDescribedAsCoarse)
   const fe::TriangleMesh target = fe::read_shape(kCtc01, fe::tessellation_for_feature(ref.diagonal()));
   fe::Params p;
   const double h = p.dense_spacing * ref.diagonal();
-  p.max_dense_points = static_cast<std::size_t>(surface_area(target) / (h * h) / 9);  // 3x coarser
+  p.max_dense_points = static_cast<std::size_t>(fe::mesh_area(target) / (h * h) / 9);  // 3x coarser
   const fe::Result r = fe::extract(ref, target, p);
   EXPECT_TRUE(std::any_of(r.warnings.begin(), r.warnings.end(),
                           [](const std::string& w) { return w.find("both described 3") != std::string::npos; }));
   EXPECT_LE(static_cast<double>(r.target.dense_points), 1.1 * static_cast<double>(p.max_dense_points));  // an estimate from the area
-  const double ref_h = std::sqrt(surface_area(ref) / static_cast<double>(r.reference.dense_points));
+  const double ref_h = std::sqrt(fe::mesh_area(ref) / static_cast<double>(r.reference.dense_points));
   EXPECT_GT(ref_h, 2.0 * h);  // the reference's samples are as coarse as the target's (they were h)
   EXPECT_EQ(r.params.dense_spacing, fe::Params{}.dense_spacing);  // the result reports what was asked for
   expect_each_ctc01_hole_once(r, "3x coarser");
