@@ -93,6 +93,7 @@ def base_cases(build):
     bottom = "/usr/share/opencascade/data/occ/Bottom.brep"
     if os.path.exists(bottom):
         out.append(("occt_bottom_bosses", bottom, bottom_bosses(bottom)))
+    out.append(("counterbores", *counterbore_plate(os.path.join(build, "models", "user_cases"))))
     mf = os.path.join(SHARED, "mfcad")
     if os.path.isdir(mf):
         index = json.load(open(os.path.join(mf, "index.json")))
@@ -188,6 +189,46 @@ def ftc06_counterbores(path):
         inst.append(((round(c.x, 3), round(c.y, 3), round(c.z, 3)), [f"Face{j}" for j in sorted(near + [i])]))
     inst.sort()
     return [faces for _, faces in inst]
+
+
+# (hole radius, counterbore radius, counterbore depth, x, y, side) of counterbore_plate's holes.
+COUNTERBORES = [
+    (4.0, 7.0, 5.0, 30, 35, +1),     # the reference
+    (4.0, 7.0, 5.0, 30, 105, +1),    # the same
+    (6.0, 10.5, 7.5, 85, 35, +1),    # 1.5x
+    (6.0, 10.0, 4.0, 85, 105, +1),   # 1.5x across, a shallower counterbore
+    (8.0, 14.0, 10.0, 145, 35, +1),  # 2x
+    (8.0, 11.5, 6.0, 145, 105, +1),  # 2x hole, a narrower and shallower counterbore (FTC-06's 1.44 ratio)
+    (3.0, 5.5, 4.0, 200, 35, +1),    # 0.75x
+    (5.0, 8.0, 5.0, 200, 105, -1),   # 1.25x, from the bottom face
+]
+
+
+def counterbore_plate(folder):
+    """A 240 x 140 x 24 mm plate with eight counterbored through holes (COUNTERBORES): holes of
+    0.75-2x the reference's radius with counterbores of other width and depth ratios, one from the
+    bottom. The plate's thickness stays, so a larger hole is shorter for its radius, as on real parts
+    (FTC-06's bosses and walls). Added in the fifteenth session as a development case of the kind of
+    feature the meshing rules name first (a washer ring around a bolt hole); written as STEP by
+    FreeCAD on first use. Instances as in ftc06_counterbores; the reference is the first hole."""
+    path = os.path.join(folder, "counterbores.step")
+    if not os.path.exists(path):
+        os.makedirs(folder, exist_ok=True)
+        t = 24.0
+        s = Part.makeBox(240, 140, t)
+        for r, rc, d, x, y, side in COUNTERBORES:
+            z0 = t - d if side > 0 else 0.0
+            s = s.cut(Part.makeCylinder(r, t + 2, App.Vector(x, y, -1)))
+            s = s.cut(Part.makeCylinder(rc, d + 1, App.Vector(x, y, z0 - (0 if side > 0 else 1))))
+        s = s.removeSplitter()
+        tmp = path + ".tmp.step"
+        s.exportStep(tmp)
+        os.replace(tmp, path)
+    inst = ftc06_counterbores(path)
+    first = (COUNTERBORES[0][3], COUNTERBORES[0][4])
+    s = Part.read(path)
+    inst.sort(key=lambda faces: (bbox_of(s, faces).Center - App.Vector(*first, 0)).Length > 8)
+    return path, inst
 
 
 def top_bosses(path):
