@@ -29,6 +29,7 @@ void bind_result(py::module_& m) {
       .def_readonly("stretch_max", &fe::Match::stretch_max, "largest singular value of H's Jacobian at the feature's center")
       .def_readonly("perspective", &fe::Match::perspective, "largest |w - 1| of H over the reference feature's box")
       .def_readonly("obstructed", &fe::Match::obstructed, "fraction of the reference's free-space rays (along its outward normals) that meet target surface")
+      .def_readonly("overhang", &fe::Match::overhang, "fraction of the mapped reference that runs on past the end of the instance's surface, where a reference face reaches the reference's border (a bolt hole through a thinner wall)")
       .def_readonly("mirrored", &fe::Match::mirrored, "found as the reference's mirror image (negative determinant)");
 
   py::class_<fe::ShapeStats>(m, "ShapeStats")

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <BRepAlgoAPI_Common.hxx>
+#include <BRepAlgoAPI_Cut.hxx>
 #include <BRepAlgoAPI_Fuse.hxx>
 #include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
@@ -785,6 +786,35 @@ int main(int argc, char** argv) {
     truth << "],\n";
     write_step(plate, dir + "/l_pads.step");
     BRepTools::Write(cut_faces(plate, xs[0] - 14, 30 - 9, xs[0] + 14, 30 + 9), (dir + "/l_pad_reference.brep").c_str());
+  }
+  // Counterbored through holes in one 24 mm plate (issue 9): the reference hole (R4, counterbore R7
+  // 5 deep) and one twice its size (R8, counterbore R14 10 deep). The plate keeps its thickness, so
+  // the large hole below its counterbore is 14 long where twice the reference's would be 38: its
+  // picked cylinder, mapped at 2x, runs on below the plate. Reference: the first hole's three faces.
+  {
+    TopoDS_Shape plate = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, -24), 150, 70, 24).Shape();
+    const double holes[][5] = {{30, 35, 4, 7, 5}, {100, 35, 8, 14, 10}};  // x, y, hole R, counterbore R, depth
+    truth << "  \"counterbores.step\": [";
+    for (int i = 0; i < 2; ++i) {
+      const double* h = holes[i];
+      plate = BRepAlgoAPI_Cut(plate, BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(h[0], h[1], -25), gp::DZ()), h[2], 26).Shape()).Shape();
+      plate = BRepAlgoAPI_Cut(plate, BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(h[0], h[1], -h[4]), gp::DZ()), h[3], h[4] + 1).Shape()).Shape();
+      truth << (i ? ", " : "") << "{\"center\": " << json_point(h[0], h[1], -12) << ", \"scale\": " << h[2] / holes[0][2] << "}";
+    }
+    truth << "],\n";
+    write_step(plate, dir + "/counterbores.step");
+    TopoDS_Compound picked;
+    BRep_Builder bb;
+    bb.MakeCompound(picked);
+    TopTools_IndexedMapOfShape faces;
+    TopExp::MapShapes(plate, TopAbs_FACE, faces);
+    for (int i = 1; i <= faces.Extent(); ++i) {
+      const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
+      if (a0 < 22 || a1 > 38 || b0 < 27 || b1 > 43) continue;  // not the first hole's
+      if (c1 - c0 < 1e-6 && (std::abs(c1) < 1e-3 || std::abs(c1 + 24) < 1e-3)) continue;  // the plate's top or bottom
+      bb.Add(picked, faces(i));
+    }
+    BRepTools::Write(picked, (dir + "/counterbore_reference.brep").c_str());
   }
   // bad-input helpers: a flat reference and a target with nothing similar
   write_step(BRepBuilderAPI_MakeFace(gp_Pln(gp::Origin(), gp::DZ()), 0, 30, 0, 20).Shape(), dir + "/flat_reference.step");

@@ -172,6 +172,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     mt.stretch_max = df.scale_max;
     mt.perspective = df.perspective;
     mt.obstructed = ev.obstructed;
+    mt.overhang = ev.overhang;
     // The instance's faces: the target within the tolerance of the mapped reference. What tells it
     // from another instance (merge.h): the target within the fit's error (twice its quantile error,
     // at most the tolerance) and a sample spacing, so that an exact fit of a passage does not reach
@@ -248,9 +249,9 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       const Deformation& df = ev.deformation;
       if (debug) {
         const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
-        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f obstructed %.2f partial %.2f it %d -> %s%s\n",
+        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f obstructed %.2f partial %.2f overhang %.2f it %d -> %s%s\n",
                      order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), ev.error / L, ev.score, ev.key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
-                     df.perspective, ev.obstructed, ev.partial_faces, rr.iterations, accepted ? "accepted" : "rejected by ", ev.failed().c_str());
+                     df.perspective, ev.obstructed, ev.partial_faces, ev.overhang, rr.iterations, accepted ? "accepted" : "rejected by ", ev.failed().c_str());
         const Eigen::Vector3d rc = 0.5 * (scorer.key_box_min() + scorer.key_box_max());
         const Eigen::Matrix3d J = transform_jacobian(H, rc);
         const Eigen::Vector3d m = apply_transform(H, rc);
@@ -324,6 +325,9 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     FeatureCore topology_core;
     topology_core.set = true;
     topology_core.dense_feature = mask;
+    topology_core.open_faces = core.open_faces;
+    topology_core.open_border = core.open_border;
+    topology_core.open_border_face = core.open_border_face;
     // A topology match has matched every face, so the stretch bounds are wider (topology_*).
     Params pt = p;
     pt.axis_scale_min = std::min(p.axis_scale_min, p.topology_axis_scale_min);
@@ -517,7 +521,16 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   const SearchedReference sr = searched_reference(reference_in, params_in);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
-  const FeatureCore fc = feature_core(reference_in, sr.cut);
+  FeatureCore fc = feature_core(reference_in, sr.cut);
+  if (params_in.max_overhang > 0) {
+    std::vector<char> open = faces_on_border(reference);
+    if (std::find(open.begin(), open.end(), 1) != open.end()) {
+      fc.open_faces = std::make_shared<const std::vector<char>>(std::move(open));
+      std::vector<int> bface;
+      fc.open_border = std::make_shared<const Points>(open_border_points(reference, 0.005 * reference.diagonal(), &bface));
+      fc.open_border_face = std::make_shared<const std::vector<int>>(std::move(bface));
+    }
+  }
   // One pass: the reference (scaled by a scale band's f, merge.h) and its mirror image.
   auto pass = [&](const TriangleMesh& ref, const FeatureCore& core, const Params& asked) {
     const double L = ref.diagonal();
@@ -554,6 +567,11 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         if (core.set) {
           fm.lo.x() = 2 * c.x() - core.hi.x();
           fm.hi.x() = 2 * c.x() - core.lo.x();
+        }
+        if (core.open_border) {
+          Points b = *core.open_border;
+          b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
+          fm.open_border = std::make_shared<const Points>(std::move(b));
         }
         merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
         out.mirror_searched = true;
@@ -592,6 +610,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         core.lo = c + band.f * (fc.lo - c);
         core.hi = c + band.f * (fc.hi - c);
       }
+      if (fc.open_border)
+        core.open_border = std::make_shared<const Points>(((fc.open_border->rowwise() - c.transpose()) * band.f).rowwise() + c.transpose());
       Params bp = params;
       bp.scale_min = band.lo;
       bp.scale_max = band.hi;

@@ -3,7 +3,9 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <map>
 #include <numeric>
+#include <unordered_map>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -49,6 +51,8 @@ std::string Evidence::failed() const {
 }
 
 namespace {
+// point_error's value for a sample that runs past the end of the target's surface (overhangs()).
+constexpr double kOverhang = -1.0;
 // Rows of x inside the feature core; all of them when too little would be left. `dense`: x are the
 // reference's dense samples (else points whose nearest dense sample decides, with a mask).
 std::vector<Eigen::Index> core_rows(const Points& x, const FeatureCore& core, const ShapeDescription::Impl& R, bool dense) {
@@ -91,6 +95,49 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
     Eigen::Index k = 0;
     for (Eigen::Index i : kr) { eval_pts_.row(k) = R.keys.row(i); eval_nrm_.row(k++) = R.key_normals.row(i); }
     for (Eigen::Index i : dr) { eval_pts_.row(k) = R.dense.points.row(i); eval_nrm_.row(k++) = R.dense_normals.row(i); }
+  }
+  // Samples of faces that reach the reference's border (they may run past the end of the target's).
+  if (core.open_faces && R.dense.face_ids.size() == R.dense.points.rows() && p.max_overhang > 0) {
+    const std::vector<char>& of = *core.open_faces;
+    open_dense_.assign(static_cast<std::size_t>(R.dense.points.rows()), 0);
+    bool any = false;
+    for (Eigen::Index i = 0; i < R.dense.points.rows(); ++i) {
+      const int f = R.dense.face_ids(i);
+      open_dense_[static_cast<std::size_t>(i)] = f > 0 && static_cast<std::size_t>(f) < of.size() && of[static_cast<std::size_t>(f)];
+      any = any || open_dense_[static_cast<std::size_t>(i)];
+    }
+    if (!any) open_dense_.clear();
+  }
+  if (!open_dense_.empty() && core.open_border && core.open_border_face && core.open_border->rows() > 0 &&
+      core.open_border_face->size() == static_cast<std::size_t>(core.open_border->rows())) {
+    // distance of each open sample to its own face's part of the border
+    std::map<int, std::vector<Eigen::Index>> of_face;
+    for (Eigen::Index k = 0; k < core.open_border->rows(); ++k) of_face[(*core.open_border_face)[static_cast<std::size_t>(k)]].push_back(k);
+    std::map<int, std::unique_ptr<KdTree3>> trees;
+    for (const auto& [f, rows] : of_face) {
+      Points P(static_cast<Eigen::Index>(rows.size()), 3);
+      for (std::size_t k = 0; k < rows.size(); ++k) P.row(static_cast<Eigen::Index>(k)) = core.open_border->row(rows[k]);
+      trees[f] = std::make_unique<KdTree3>(P);
+    }
+    border_dist_.assign(static_cast<std::size_t>(R.dense.points.rows()), INFINITY);
+    for (Eigen::Index i = 0; i < R.dense.points.rows(); ++i) {
+      if (!open_dense_[static_cast<std::size_t>(i)]) continue;
+      const auto it = trees.find(R.dense.face_ids(i));
+      double d2;
+      if (it != trees.end() && it->second->nearest(R.dense.points.row(i).transpose(), &d2) >= 0) border_dist_[static_cast<std::size_t>(i)] = std::sqrt(d2);
+    }
+    eval_open_.assign(static_cast<std::size_t>(eval_pts_.rows()), 0);
+    eval_border_dist_.assign(static_cast<std::size_t>(eval_pts_.rows()), INFINITY);
+    eval_face_.assign(static_cast<std::size_t>(eval_pts_.rows()), 0);
+    for (Eigen::Index k = 0; k < eval_pts_.rows(); ++k) {
+      const int j = R.dense_tree->nearest(eval_pts_.row(k).transpose());
+      if (j < 0) continue;
+      eval_open_[static_cast<std::size_t>(k)] = open_dense_[static_cast<std::size_t>(j)];
+      eval_border_dist_[static_cast<std::size_t>(k)] = border_dist_[static_cast<std::size_t>(j)];
+      eval_face_[static_cast<std::size_t>(k)] = R.dense.face_ids(j);
+    }
+  } else {
+    open_dense_.clear();
   }
   normal_penalty_ = 2.0 * p.accept_error * L_;
   dense_rows_ = stride_subset(core_dense_, 1500);
@@ -157,6 +204,31 @@ double HypothesisScorer::target_distance(const Eigen::Vector3d& y, int* j) const
   return k < 0 ? INFINITY : std::sqrt(d2);
 }
 
+bool HypothesisScorer::overhangs(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, int j, double s) const {
+  if (j < 0) return false;
+  const double tol = p_.accept_error * L_ * s;
+  const Eigen::Vector3d q = T_.dense.points.row(j);
+  // in free space: in front of (or beside) every nearby target sample, behind none
+  thread_local std::vector<int> idx;
+  thread_local std::vector<float> d2;
+  T_.dense_tree->knn(y, 8, idx, d2);
+  for (const int k : idx)
+    if ((y - T_.dense.points.row(k).transpose()).dot(T_.dense_normals.row(k).transpose()) < -tol) return false;
+  // the step from y toward q within y's own tangent plane ends where the target surface ends (q
+  // itself may lie on the face beyond the end: the part's bottom around a hole's rim) ...
+  Eigen::Vector3d u = q - y;
+  u -= u.dot(nm) * nm;
+  const Eigen::Vector3d z = y + u;
+  // ... beside target samples of the same facing whose tangent planes pass through y (a hole of
+  // the wrong radius lies off them along the normal)
+  T_.dense_tree->radius(z, 2.0 * T_.dense_h + 0.5 * tol, idx, d2);
+  for (const int k : idx) {
+    const Eigen::Vector3d n = T_.dense_normals.row(k);
+    if (n.dot(nm) >= 0.9 && std::abs((y - T_.dense.points.row(k).transpose()).dot(n)) <= tol) return true;
+  }
+  return false;
+}
+
 bool HypothesisScorer::bounds_ok(const Eigen::Matrix4d& H, double* scale) const {
   const Deformation df = deformation(H, rlo_, rhi_);
   if (deformation_outside(df, p_)) return false;
@@ -177,13 +249,21 @@ double HypothesisScorer::point_error(const Eigen::Matrix4d& H, Eigen::Index i, d
   if (capped) {
     e = surface_distance_capped(T_, apply_transform(H, x), normal_penalty_ * s, &j) / s;
     if (!std::isfinite(e)) return INFINITY;
-    if (j < 0) return normal_penalty_;
   } else {
     e = surface_distance(T_, apply_transform(H, x), &j) / s;
     if (!std::isfinite(e) || j < 0) return INFINITY;
   }
-  if ((transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized().dot(T_.dense_normals.row(j)) < 0.5)
-    e = std::max(e, normal_penalty_);
+  const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized();
+  // (just past the end, the nearest target sample may be the face beyond it, of another facing; a
+  // sample on the surface whose normal disagrees only at a crease is not off it)
+  if (!eval_open_.empty() && eval_open_[static_cast<std::size_t>(i)] &&
+      (j < 0 || e > p_.accept_error * L_ || (nm.dot(T_.dense_normals.row(j)) < 0.5 && e * s > 2 * T_.dense_h))) {
+    const Eigen::Vector3d y = apply_transform(H, x);
+    const int k = T_.dense_tree->nearest(y);
+    if (overhangs(y, nm, k, s)) return kOverhang;
+  }
+  if (j < 0) return normal_penalty_;  // (capped: farther than the penalty)
+  if (nm.dot(T_.dense_normals.row(j)) < 0.5) e = std::max(e, normal_penalty_);
   return e;
 }
 
@@ -202,10 +282,36 @@ bool HypothesisScorer::point_errors(const Eigen::Matrix4d& H, double s, double s
     const double e = point_error(H, i, s, capped);
     if (!std::isfinite(e)) return false;
     errs.push_back(e);
-    sum += std::min(e, normal_penalty_);
+    sum += e == kOverhang ? p_.accept_error * L_ : std::min(e, normal_penalty_);
     if (sum > sum_limit) return false;  // cannot beat the best any more
   }
   return true;
+}
+
+void HypothesisScorer::keep_truncations(std::vector<double>& errs, const std::vector<int>& face, const std::vector<double>& dist, double on,
+                                        double penalty) const {
+  std::unordered_map<int, std::pair<double, double>> lim;  // face -> (nearest on the target, farthest overhanging) from the border
+  for (std::size_t k = 0; k < errs.size(); ++k) {
+    if (!std::isfinite(dist[k])) continue;
+    auto it = lim.emplace(face[k], std::make_pair(INFINITY, -INFINITY)).first;
+    if (errs[k] == kOverhang) it->second.second = std::max(it->second.second, dist[k]);
+    else if (errs[k] <= on) it->second.first = std::min(it->second.first, dist[k]);
+  }
+  // (samples within the acceptance tolerance past the target's end still count as on it)
+  const double margin = p_.accept_error * L_ + 2.0 * R_.dense_h;
+  for (std::size_t k = 0; k < errs.size(); ++k) {
+    if (errs[k] != kOverhang) continue;
+    const auto it = lim.find(face[k]);
+    if (it != lim.end() && it->second.second > it->second.first + margin) errs[k] = penalty;
+  }
+}
+
+// The errors of overhanging samples (kOverhang): left out while they are at most max_overhang of all,
+// else counted at the normal penalty (off the target, as any sample that lies nowhere near it).
+double HypothesisScorer::overhang_share(const std::vector<double>& errs) const {
+  if (errs.empty()) return 0;
+  const auto n = std::count(errs.begin(), errs.end(), kOverhang);
+  return static_cast<double>(n) / static_cast<double>(errs.size());
 }
 
 double HypothesisScorer::cost(const Eigen::Matrix4d& H, double limit) const {
@@ -213,8 +319,11 @@ double HypothesisScorer::cost(const Eigen::Matrix4d& H, double limit) const {
   if (!bounds_ok(H, &s)) return INFINITY;
   thread_local std::vector<double> buf;
   if (!point_errors(H, s, std::isfinite(limit) ? limit * static_cast<double>(eval_pts_.rows()) : INFINITY, buf, true)) return INFINITY;
+  // an overhanging sample costs the acceptance bound: a fit that runs off the target no farther
+  // than it must is preferred, and one that overhangs more than max_overhang pays the penalty
+  const double over = overhang_share(buf) <= p_.max_overhang ? p_.accept_error * L_ : normal_penalty_;
   double sum = 0;
-  for (double e : buf) sum += std::min(e, normal_penalty_);
+  for (double e : buf) sum += e == kOverhang ? over : std::min(e, normal_penalty_);
   return sum / static_cast<double>(buf.size());
 }
 
@@ -225,7 +334,7 @@ double HypothesisScorer::screen_cost(const Eigen::Matrix4d& H, double s, double 
   for (const Eigen::Index i : screen_rows_) {
     const double e = point_error(H, i, s, true);
     if (!std::isfinite(e)) return INFINITY;
-    sum += std::min(e, normal_penalty_);
+    sum += e == kOverhang ? p_.accept_error * L_ : std::min(e, normal_penalty_);
     if (sum > sum_limit && sum / n > limit) return INFINITY;  // terms are >= 0: the mean can only grow
   }
   return sum / n;
@@ -235,18 +344,44 @@ double HypothesisScorer::quantile_error(const Eigen::Matrix4d& H) const {
   double s;
   std::vector<double> errs;
   if (!bounds_ok(H, &s) || !point_errors(H, s, INFINITY, errs, false)) return INFINITY;
+  if (!eval_open_.empty()) keep_truncations(errs, eval_face_, eval_border_dist_, p_.accept_error * L_, normal_penalty_);
+  if (overhang_share(errs) <= p_.max_overhang) {
+    errs.erase(std::remove(errs.begin(), errs.end(), kOverhang), errs.end());
+    if (errs.empty()) return INFINITY;
+  } else {
+    for (double& e : errs) e = e == kOverhang ? normal_penalty_ : e;
+  }
   const std::size_t q = std::min(errs.size() - 1, static_cast<std::size_t>(p_.error_quantile * static_cast<double>(errs.size())));
   std::nth_element(errs.begin(), errs.begin() + static_cast<long>(q), errs.end());
   return errs[q];
 }
 
+bool HypothesisScorer::dense_overhangs(const Eigen::Matrix4d& H, Eigen::Index row, const Eigen::Vector3d& y, double e, int j, double s) const {
+  if (!open_dense(row) || j < 0 || !std::isfinite(e)) return false;
+  const Eigen::Vector3d x = R_.dense.points.row(row);
+  const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * R_.dense_normals.row(row).transpose()).normalized();
+  if (!nm.allFinite() || (e <= p_.accept_error * L_ * s && (nm.dot(T_.dense_normals.row(j)) >= 0.5 || e <= 2 * T_.dense_h))) return false;  // on the target
+  return overhangs(y, nm, j, s);
+}
+
 double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
   std::vector<double> e(dense_rows_.size());  // on all threads, summed in order
+  std::vector<char> over(dense_rows_.size(), 0);
+  const double s = std::cbrt(std::abs(deformation(H, rlo_, rhi_).volume_ratio));
 #pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < dense_rows_.size(); ++k) e[k] = surface_distance(T_, apply_transform(H, R_.dense.points.row(dense_rows_[k]).transpose()));
+  for (std::size_t k = 0; k < dense_rows_.size(); ++k) {
+    const Eigen::Vector3d y = apply_transform(H, R_.dense.points.row(dense_rows_[k]).transpose());
+    int j;
+    e[k] = surface_distance(T_, y, &j);
+    over[k] = !open_dense_.empty() && s > 0 && dense_overhangs(H, dense_rows_[k], y, e[k], j, s);
+  }
+  // overhanging samples are left out (while at most max_overhang of them)
+  const std::size_t no = static_cast<std::size_t>(std::count(over.begin(), over.end(), 1));
+  const bool skip = no > 0 && static_cast<double>(no) <= p_.max_overhang * static_cast<double>(dense_rows_.size());
   double sq = 0;
-  for (const double ek : e) sq += std::isfinite(ek) ? ek * ek : L_ * L_;
-  return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size())));
+  for (std::size_t k = 0; k < e.size(); ++k)
+    if (!(skip && over[k])) sq += std::isfinite(e[k]) ? e[k] * e[k] : L_ * L_;
+  return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size() - (skip ? no : 0))));
 }
 
 Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all) const {
@@ -256,9 +391,12 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
   ev.tolerance = tol;
   // Validation on the dense surfaces: mapped reference samples on the target, normals agreeing.
   ev.mapped.resize(static_cast<Eigen::Index>(dense_rows_.size()), 3);
-  int on = 0;
-  double sq = 0;
   bool finite_map = true;  // false when H's plane at infinity cuts the reference feature
+  // per row: its error (kOverhang where it overhangs), and whether it lies on the target
+  std::vector<double> err(dense_rows_.size()), dist(open_dense_.empty() ? 0 : dense_rows_.size());
+  std::vector<int> face(dist.size());
+  std::vector<char> is_on(dense_rows_.size(), 0);
+  double sq = 0;
   for (std::size_t k = 0; k < dense_rows_.size(); ++k) {
     const Eigen::Vector3d x = R_.dense.points.row(dense_rows_[k]);
     const Eigen::Vector3d y = apply_transform(H, x);
@@ -267,13 +405,40 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
     int j;
     const double e = surface_distance(T_, y, &j);
     sq += std::isfinite(e) ? e * e : tol * tol * 100;
+    err[k] = std::isfinite(e) ? e : tol * 10;
+    if (!dist.empty()) {
+      dist[k] = border_dist_[static_cast<std::size_t>(dense_rows_[k])];
+      face[k] = R_.dense.face_ids(dense_rows_[k]);
+      if (dense_overhangs(H, dense_rows_[k], y, e, j, s)) {
+        err[k] = kOverhang;
+        continue;
+      }
+    }
     if (j < 0 || !(e <= tol)) continue;
     const Eigen::Vector3d nr = R_.dense_normals.row(dense_rows_[k]);
     const Eigen::Vector3d nm = transform_jacobian(H, x).inverse().transpose() * nr;
-    if (nm.normalized().dot(T_.dense_normals.row(j)) > 0.5) ++on;
+    is_on[k] = nm.normalized().dot(T_.dense_normals.row(j)) > 0.5;
   }
-  ev.rms = std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size())));
-  ev.score = static_cast<double>(on) / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size()));
+  if (!dist.empty()) keep_truncations(err, face, dist, tol, tol * 10);
+  int on = 0, over = 0;
+  double sq_over = 0;
+  for (std::size_t k = 0; k < err.size(); ++k) {
+    on += is_on[k];
+    if (err[k] == kOverhang) {
+      ++over;
+      const Eigen::Vector3d y = ev.mapped.row(static_cast<Eigen::Index>(k));
+      const double e = surface_distance(T_, y);
+      sq_over += std::isfinite(e) ? e * e : tol * tol * 100;
+    }
+  }
+  // Samples that run past the end of the target's surface are left out of the score and the RMS
+  // while they are at most max_overhang of the reference (else they count as off the target).
+  const std::size_t n = std::max<std::size_t>(1, dense_rows_.size());
+  ev.overhang = static_cast<double>(over) / static_cast<double>(n);
+  const bool skip = over > 0 && ev.overhang <= p_.max_overhang;
+  const double kept = static_cast<double>(std::max<std::size_t>(1, n - (skip ? static_cast<std::size_t>(over) : 0)));
+  ev.rms = std::sqrt((sq - (skip ? sq_over : 0.0)) / kept);
+  ev.score = static_cast<double>(on) / kept;
   // Key point agreement (paper's shape index, used as a check): the reference key points must land
   // near target key points of a similar shape index, not on plain or differently curved surface.
   int agree = 0;
@@ -292,6 +457,7 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
   ev.checks.push_back({"finite", finite_map ? 1.0 : 0.0, 1.0, finite_map});
   ev.checks.push_back({"accept_error", ev.error, p_.accept_error * L_, ev.error <= p_.accept_error * L_});
   ev.checks.push_back({"min_score", ev.score, p_.min_score, ev.score >= p_.min_score});
+  if (over > 0) ev.checks.push_back({"max_overhang", ev.overhang, p_.max_overhang, ev.overhang <= p_.max_overhang});
   ev.checks.push_back({"min_key_agreement", ev.key_agreement, p_.min_key_agreement, ev.key_agreement >= p_.min_key_agreement});
   // Free space in front of the reference (clearance.h), then whole faces on whole faces.
   if ((ev.accepted() || all) && p_.max_obstructed < 1) {

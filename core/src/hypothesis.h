@@ -30,6 +30,13 @@ struct FeatureCore {
   /// 1 = feature, 2 = feature whose face was cut short (not held to the whole-faces check). Key points
   /// take their nearest dense sample's. (The faces a topology match holds, topology.h.)
   std::shared_ptr<const std::vector<char>> dense_feature;
+  /// Per B-rep face of the reference (faces_on_border): 1 where the face reaches the reference's
+  /// border, so that it may run past the end of its face on an instance (HypothesisScorer::overhangs).
+  std::shared_ptr<const std::vector<char>> open_faces;
+  /// Points along the reference's open border (open_border_points), in the reference's frame: a face
+  /// may overhang only on its side toward the border (HypothesisScorer::overhangs).
+  std::shared_ptr<const Points> open_border;
+  std::shared_ptr<const std::vector<int>> open_border_face;  ///< the B-rep face of each open_border point
   bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
 };
 constexpr double kContextMargin = 0.2;
@@ -59,6 +66,7 @@ struct Evidence {
   double key_agreement = 0; ///< share of the core key points landing near target key points of similar SI
   double obstructed = 0;    ///< Clearance::obstructed (0 when not measured)
   double partial_faces = 0; ///< FaceCoverCheck::partial_share (0 when not measured)
+  double overhang = 0;      ///< share of the mapped dense samples that run past the end of the target's surface (overhangs)
   double rms = 0;           ///< RMS distance of the mapped dense samples to the target, target units
   Deformation deformation;
   Points mapped;            ///< the mapped dense subsample (HypothesisScorer::dense_rows)
@@ -101,6 +109,19 @@ class HypothesisScorer {
   /// Distance from y to the nearest target dense sample (its index in *j).
   double target_distance(const Eigen::Vector3d& y, int* j = nullptr) const;
 
+  /// Does a reference sample of a face that reaches the reference's border (FeatureCore::open_faces),
+  /// mapped to y with unit normal nm, off the target (farther than the acceptance tolerance from its
+  /// nearest target sample j, or with another facing), run on past the end of the target's surface? It does when y lies in free space (in
+  /// front of its nearest target samples, none behind) and on the continuation of a target surface of
+  /// the same facing: the tangential step from y toward j ends beside target samples whose tangent
+  /// planes pass through y. A bolt hole's cylinder picked in a thick wall, mapped onto a hole through
+  /// a thinner one, runs on below the part; a hole of the wrong radius lies off its wall along the
+  /// normal, and a rib sunk into a plate lies behind the plate's face: neither overhangs. Such samples
+  /// are left out of the errors, the score and the RMS, up to Params::max_overhang of them.
+  bool overhangs(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, int j, double s) const;
+  /// Per reference dense sample: on a face that reaches the border (overhangs() may apply).
+  bool open_dense(Eigen::Index i) const { return !open_dense_.empty() && open_dense_[static_cast<std::size_t>(i)]; }
+
   double normal_penalty() const { return normal_penalty_; }
   const std::vector<Eigen::Index>& core_keys() const { return core_keys_; }
   const std::vector<Eigen::Index>& core_dense() const { return core_dense_; }
@@ -115,12 +136,24 @@ class HypothesisScorer {
  private:
   double point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped) const;
   bool point_errors(const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped) const;
+  double overhang_share(const std::vector<double>& errs) const;
+  /// Does dense sample `row` of the reference, mapped by H (at scale s) to y at distance e from its
+  /// nearest target sample j, overhang (overhangs())?
+  bool dense_overhangs(const Eigen::Matrix4d& H, Eigen::Index row, const Eigen::Vector3d& y, double e, int j, double s) const;
 
   const ShapeDescription::Impl& R_;
   const ShapeDescription::Impl& T_;
   const Params& p_;
   double L_;
   std::vector<Eigen::Index> core_keys_, core_dense_, dense_rows_, screen_rows_;
+  std::vector<char> open_dense_, eval_open_;  // per R.dense row / per eval point: may overhang
+  std::vector<double> border_dist_, eval_border_dist_;  // distance to the reference's open border (open rows)
+  std::vector<int> eval_face_;                          // reference face of each eval point
+  /// The truncation rule: per reference face, the overhanging entries (kOverhang in errs) must all
+  /// lie nearer the reference's open border than the entries on the target (errs <= on); a face whose
+  /// overhang reaches past them (a through step's floor laid over a triangular step, the rest of the
+  /// rectangle beyond the diagonal) is not cut short at its border: its entries become `penalty`.
+  void keep_truncations(std::vector<double>& errs, const std::vector<int>& face, const std::vector<double>& dist, double on, double penalty) const;
   Points eval_pts_, eval_nrm_;  // reference key points and dense samples that judge a transform
   double normal_penalty_;
   Eigen::Vector3d rlo_, rhi_;

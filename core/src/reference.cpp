@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <numeric>
 #include <tuple>
@@ -192,6 +193,61 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
       if (out.cut_triangle[static_cast<std::size_t>(t)]) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
     for (int f = 1; f <= m.num_faces; ++f)
       if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
+  }
+  return out;
+}
+
+std::vector<char> faces_on_border(const TriangleMesh& m) {
+  if (!m.from_brep() || m.triangles.rows() == 0) return {};
+  const double diag = m.diagonal();
+  if (!(diag > 0)) return {};
+  const std::vector<int> vid = weld(m.vertices, 1e-7 * diag);
+  std::unordered_map<std::uint64_t, int> uses;  // welded edge -> triangles using it
+  auto key = [&](Eigen::Index t, int k) {
+    const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, k))]);
+    const auto w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, (k + 1) % 3))]);
+    return std::min(u, w) << 32 | std::max(u, w);
+  };
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
+    for (int k = 0; k < 3; ++k) ++uses[key(t, k)];
+  std::vector<char> out(static_cast<std::size_t>(m.num_faces + 1), 0);
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (uses[key(t, k)] == 1) out[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
+  out[0] = 0;
+  return out;
+}
+
+Points open_border_points(const TriangleMesh& m, double step, std::vector<int>* face) {
+  face->clear();
+  if (!m.from_brep() || m.triangles.rows() == 0 || !(step > 0)) return Points(0, 3);
+  const std::vector<int> vid = weld(m.vertices, 1e-7 * m.diagonal());
+  struct Use {
+    int n = 0, a = 0, b = 0, face = 0;
+  };
+  std::unordered_map<std::uint64_t, Use> uses;  // welded edge -> uses, its vertices and face
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int a = m.triangles(t, k), b = m.triangles(t, (k + 1) % 3);
+      const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(a)]), w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(b)]);
+      Use& e = uses[std::min(u, w) << 32 | std::max(u, w)];
+      e = {e.n + 1, a, b, m.face_ids(t)};
+    }
+  std::vector<std::tuple<int, double, double, double>> pts;  // (face, x, y, z)
+  for (const auto& [key, e] : uses) {
+    if (e.n != 1) continue;
+    const Eigen::Vector3d a = m.vertices.row(e.a), b = m.vertices.row(e.b);
+    const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step)));
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(i) / n);
+      pts.emplace_back(e.face, p.x(), p.y(), p.z());
+    }
+  }
+  std::sort(pts.begin(), pts.end());  // in a fixed order (the map's order is not)
+  Points out(static_cast<Eigen::Index>(pts.size()), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    out.row(static_cast<Eigen::Index>(i)) << std::get<1>(pts[i]), std::get<2>(pts[i]), std::get<3>(pts[i]);
+    face->push_back(std::get<0>(pts[i]));
   }
   return out;
 }

@@ -39,6 +39,7 @@ std::string result_to_json(const Result& r, int indent) {
     o["stretch"] = {num(m.stretch_min), num(m.stretch_max)};
     o["perspective"] = num(m.perspective);
     o["obstructed"] = num(m.obstructed);
+    o["overhang"] = num(m.overhang);
     o["mirrored"] = m.mirrored;
     j["matches"].push_back(o);
   }

@@ -176,6 +176,14 @@ Eigen::Matrix4d fit_axisymmetric(const Eigen::Matrix4d& H, const Symmetry& rs, c
       N += g * g.transpose();
       b += g * rows[k](3);
     }
+    // A weak pull toward the same scale along the axis as across it: where nothing on the target
+    // fixes the axial scale (a counterbore picked as faces, both its cylinders running out at the
+    // picked border: only the ring's height is fixed), the fit keeps the feature's proportions
+    // instead of the scale it started from; where the surface fixes it, the pull is 1e-3 of the data.
+    {
+      const Eigen::Vector3d g(-1.0, 1.0, 0.0);
+      N += 1e-3 * N.trace() / 3.0 * g * g.transpose();
+    }
     const Eigen::Vector3d sol = N.ldlt().solve(b);
     if (!sol.allFinite() || sol(0) <= 0 || sol(1) <= 0) return H;
     const bool done = std::abs(sol(0) - sr) < 1e-6 * s0 && std::abs(sol(1) - sa) < 1e-6 * s0 && std::abs(sol(2) - t) < 1e-6 * size;

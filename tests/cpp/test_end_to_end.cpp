@@ -356,6 +356,67 @@ TEST(EndToEnd, InstancesAThirdOfTheReferenceAreFoundInScaleBands) {
   for (const auto& b : t["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss at " << b << " matched";
 }
 
+// A counterbored hole picked as its three faces (issue 9): on a part, a hole of another size goes
+// through the same wall, so its cylinder below the counterbore is not scaled with it. The reference
+// (R4, counterbore R7 5 deep, in a 24 mm plate) mapped at 2x onto the R8 hole runs on 24 mm below
+// the plate: those samples lie in free space on the continuation of the hole's wall (overhang) and
+// are left out of the error and the score. Without that (max_overhang 0) the large hole is missed:
+// its fits stretched the counterbore short and failed the error bound (0.15-0.21 L).
+TEST(EndToEnd, ACounterboredHoleIsFoundThroughAThinnerWall) {
+  const Case c = load("counterbore_reference.brep", "counterbores.step");
+  const nlohmann::json t = truth()["counterbores.step"];
+  ASSERT_EQ(t.size(), 2u);
+  for (const double max_overhang : {0.5, 0.0}) {
+    fe::Params p;
+    p.max_overhang = max_overhang;
+    const fe::Result r = fe::extract(c.ref, c.tgt, p);
+    std::vector<int> found(t.size(), 0);
+    for (const fe::Match& m : r.matches) {
+      expect_sane(m);
+      bool on = false;
+      for (std::size_t h = 0; h < t.size(); ++h) {
+        const Eigen::Vector3d ctr(t[h]["center"][0], t[h]["center"][1], t[h]["center"][2]);
+        if (std::hypot(m.center.x() - ctr.x(), m.center.y() - ctr.y()) > 3) continue;
+        on = true;
+        ++found[h];
+        // the map's stretch along the hole's axis and across it: the hole's own scale both ways
+        const double s = t[h]["scale"];
+        const Eigen::Matrix3d J = m.transform.topLeftCorner<3, 3>() / m.transform(3, 3);
+        if (max_overhang > 0) {
+          EXPECT_NEAR(J.col(2).norm(), s, 0.1 * s) << "along the axis, hole " << h;
+          EXPECT_NEAR(J.col(0).norm(), s, 0.1 * s) << "across the axis, hole " << h;
+        }
+      }
+      EXPECT_TRUE(on) << "a match off the holes at " << m.center.transpose();
+    }
+    EXPECT_EQ(found[0], 1) << "max_overhang " << max_overhang;
+    EXPECT_EQ(found[1], max_overhang > 0 ? 1 : 0) << "max_overhang " << max_overhang;
+  }
+}
+
+// A face may overhang only toward the reference's border (the truncation rule): MFCAD part
+// 6-6-6-11-13-23 has three rectangular through steps (Face3+Face17, Face4+Face16, Face19+Face20)
+// and a triangular blind step (Face13+Face14). The first step picked as faces, both faces ending at
+// the part's sides, was laid on the triangular step with the rest of its rectangle, beyond the
+// triangle's diagonal, overhanging in free space; but the triangle reaches the rectangle's open ends
+// too, so that floor was not cut short toward its border: not the same feature.
+TEST(EndToEnd, AThroughStepOverhangsOnlyTowardItsOpenEnds) {
+  const std::string part = std::string(FE_MFCAD_DIR) + "/6-6-6-11-13-23.step";
+  const fe::TriangleMesh tgt = fe::read_shape(part);
+  std::vector<char> drop(static_cast<std::size_t>(tgt.triangles.rows()), 1);
+  for (Eigen::Index t = 0; t < tgt.triangles.rows(); ++t)
+    if (tgt.face_ids(t) == 3 || tgt.face_ids(t) == 17) drop[static_cast<std::size_t>(t)] = 0;
+  const fe::TriangleMesh ref = fe::without_triangles(tgt, drop);
+  const fe::Result r = fe::extract(ref, fe::read_shape(part, fe::tessellation_for_feature(ref.diagonal())));
+  auto has = [](const fe::Match& m, int f) { return std::find(m.faces.begin(), m.faces.end(), f) != m.faces.end(); };
+  int steps = 0;
+  for (const fe::Match& m : r.matches) {
+    EXPECT_FALSE(has(m, 13) || has(m, 14)) << "a match on the triangular step at " << m.center.transpose();
+    steps += (has(m, 3) && has(m, 17)) || (has(m, 4) && has(m, 16)) || (has(m, 19) && has(m, 20));
+  }
+  EXPECT_EQ(steps, 3);
+}
+
 TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
   const fe::Result r = run("rib_reference.step", "boss_only.step");
   EXPECT_TRUE(r.matches.empty());

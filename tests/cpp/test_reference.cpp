@@ -72,6 +72,25 @@ TEST(CutFaces, PickedFacesAreAnOpenShellWithNothingCut) {
   EXPECT_FALSE(c.any_side_cut());  // picked faces end at the feature's edges, not at a cut
 }
 
+// Faces that reach a picked reference's open border may end sooner on an instance (max_overhang):
+// the four sides of a box without its top reach the open rim, its bottom does not; a closed box has
+// no such face, and a mesh without B-rep faces gives none.
+TEST(CutFaces, TheFacesReachingTheOpenBorderAreTheOnesAroundIt) {
+  fe::TriangleMesh m = cube(true);
+  const int face_of[12] = {1, 1, 0, 0, 2, 2, 3, 3, 4, 4, 5, 5};  // -z, (+z), -y, +y, -x, +x
+  m.face_ids.resize(m.triangles.rows());
+  for (int i = 0, k = 0; i < 12; ++i)
+    if (face_of[i] > 0) m.face_ids(k++) = face_of[i];
+  m.num_faces = 5;
+  EXPECT_EQ(fe::faces_on_border(m), (std::vector<char>{0, 0, 1, 1, 1, 1}));
+  fe::TriangleMesh closed = cube(false);
+  const int closed_face_of[12] = {1, 1, 6, 6, 2, 2, 3, 3, 4, 4, 5, 5};
+  for (int i = 0; i < 12; ++i) closed.face_ids(i) = closed_face_of[i];
+  closed.num_faces = 6;
+  EXPECT_EQ(fe::faces_on_border(closed), std::vector<char>(7, 0));
+  EXPECT_TRUE(fe::faces_on_border(cube(true)).empty());
+}
+
 TEST(CutFaces, StlRegionClippedByABoxIsOpenAndCutAlongItsBorder) {
   // the first rib (x 24.7-35.3, y 18.5-61.5, z 0-12 on a plate 6 thick) clipped out of the plate's
   // tessellation with a box 20 % larger, as from an STL: an open region whose border runs along the

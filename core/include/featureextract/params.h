@@ -60,6 +60,7 @@ struct Params {
   double max_obstructed = 0.2;       ///< accept if at most this fraction of the reference's free-space rays meets target surface (1 = off)
   double clearance_margin = 0.08;    ///< free-space rays run this far (x L) past the reference's box
   double max_partial_faces = 0.2;    ///< accept if at most this share of the reference's whole faces lands on part of a larger target face (1 = off)
+  double max_overhang = 0.5;         ///< at most this share of the mapped reference may run past the end of the target's surface where the reference's face reaches its border (a bolt hole through a thinner wall); 0 = none
   double key_si_tolerance = 0.125;   ///< shape index difference allowed for that agreement
   double volume_ratio_min = 0.2;     ///< bounds of |det| of the linear part (volume expansion ratio)
   double volume_ratio_max = 20.0;

@@ -38,6 +38,16 @@ struct CutFaces {
 /// coplanar triangles. `tolerance` is relative to the bounding-box diagonal.
 CutFaces detect_cut_faces(const TriangleMesh& mesh, double tolerance = 2e-3);
 
+/// Per B-rep face number (0..num_faces): 1 where the face reaches the mesh's open border, the edge
+/// where a user stopped picking faces or where a cut face was left out (searched_reference). Such a
+/// face may end sooner on an instance: a bolt hole's cylinder picked in a 24 mm plate goes on for
+/// as long as the wall it is drilled through. Empty for mesh input (no B-rep faces).
+std::vector<char> faces_on_border(const TriangleMesh& mesh);
+
+/// Points along the mesh's open border (edges used by one triangle), at most `step` apart, and the
+/// B-rep face of each in *face. Empty for mesh input (no B-rep faces) or a closed mesh.
+Points open_border_points(const TriangleMesh& mesh, double step, std::vector<int>* face);
+
 /// The mesh without the triangles marked in `drop` (face numbering kept; unused vertices removed).
 TriangleMesh without_triangles(const TriangleMesh& mesh, const std::vector<char>& drop);
 

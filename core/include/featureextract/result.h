@@ -27,6 +27,7 @@ struct Match {
   double stretch_min = 1, stretch_max = 1;  ///< smallest and largest singular value of H's Jacobian at the feature's center
   double perspective = 0;      ///< largest |w - 1| of H over the reference feature's box
   double obstructed = 0;       ///< fraction of the reference's free-space rays that meet target surface (see clearance.h)
+  double overhang = 0;         ///< fraction of the mapped reference that runs past the end of the instance's surface (Params::max_overhang)
   bool mirrored = false;       ///< found by the mirror image of the reference: det of H's linear part < 0
 };
 
