@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <initializer_list>
 
 namespace {
 
@@ -36,6 +37,14 @@ Case load(const std::string& ref, const std::string& tgt) {
 fe::Result run(const std::string& ref, const std::string& tgt, const fe::Params& p = {}) {
   const Case c = load(ref, tgt);
   return fe::extract(c.ref, c.tgt, p);
+}
+
+// The faces `faces` of a part's mesh, as a user picks them (an open shell).
+fe::TriangleMesh picked(const fe::TriangleMesh& whole, std::initializer_list<int> faces) {
+  std::vector<char> drop(static_cast<std::size_t>(whole.triangles.rows()), 1);
+  for (Eigen::Index t = 0; t < whole.triangles.rows(); ++t)
+    if (std::find(faces.begin(), faces.end(), whole.face_ids(t)) != faces.end()) drop[static_cast<std::size_t>(t)] = 0;
+  return fe::without_triangles(whole, drop);
 }
 
 void expect_sane(const fe::Match& m) {
@@ -213,11 +222,7 @@ TEST(EndToEnd, AStepIsNotFoundOnHalfOfASlot) {
   // picked as faces lay on the slot twice: once on part of the slot's floor, and, grown over the
   // whole floor, once with the slot's other wall standing where the step is open.
   const std::string part = std::string(FE_MFCAD_DIR) + "/5-6-6-6-14-23.step";
-  const fe::TriangleMesh tgt = fe::read_shape(part);
-  std::vector<char> drop(static_cast<std::size_t>(tgt.triangles.rows()), 1);
-  for (Eigen::Index t = 0; t < tgt.triangles.rows(); ++t)
-    if (tgt.face_ids(t) == 5 || tgt.face_ids(t) == 16) drop[static_cast<std::size_t>(t)] = 0;
-  const fe::TriangleMesh ref = fe::without_triangles(tgt, drop);
+  const fe::TriangleMesh ref = picked(fe::read_shape(part), {5, 16});
   const fe::TriangleMesh target = fe::read_shape(part, fe::tessellation_for_feature(ref.diagonal()));
   auto on_slot = [](const fe::Match& m) {
     return std::find(m.faces.begin(), m.faces.end(), 6) != m.faces.end() || std::find(m.faces.begin(), m.faces.end(), 3) != m.faces.end() ||
@@ -251,12 +256,7 @@ const std::vector<Hole> kCtc01Holes = {{-160, -45, false}, {-160, 45, false}, {1
                                        {-325, 175, false}, {325, -175, false}, {325, 175, false}, {-30, -25, true},   {30, -25, true}};
 const std::string kCtc01 = std::string(FE_REAL_DIR) + "/nist_ctc_01_asme1_rd.stp";
 
-fe::TriangleMesh ctc01_picked_hole(const fe::TriangleMesh& whole) {
-  std::vector<char> drop(static_cast<std::size_t>(whole.triangles.rows()), 1);
-  for (Eigen::Index t = 0; t < whole.triangles.rows(); ++t)
-    if (whole.face_ids(t) == 82) drop[static_cast<std::size_t>(t)] = 0;
-  return fe::without_triangles(whole, drop);
-}
+fe::TriangleMesh ctc01_picked_hole(const fe::TriangleMesh& whole) { return picked(whole, {82}); }
 
 // Each of CTC-01's holes is matched exactly once, and nothing else is.
 void expect_each_ctc01_hole_once(const fe::Result& r, const std::string& style) {
@@ -402,11 +402,7 @@ TEST(EndToEnd, ACounterboredHoleIsFoundThroughAThinnerWall) {
 // too, so that floor was not cut short toward its border: not the same feature.
 TEST(EndToEnd, AThroughStepOverhangsOnlyTowardItsOpenEnds) {
   const std::string part = std::string(FE_MFCAD_DIR) + "/6-6-6-11-13-23.step";
-  const fe::TriangleMesh tgt = fe::read_shape(part);
-  std::vector<char> drop(static_cast<std::size_t>(tgt.triangles.rows()), 1);
-  for (Eigen::Index t = 0; t < tgt.triangles.rows(); ++t)
-    if (tgt.face_ids(t) == 3 || tgt.face_ids(t) == 17) drop[static_cast<std::size_t>(t)] = 0;
-  const fe::TriangleMesh ref = fe::without_triangles(tgt, drop);
+  const fe::TriangleMesh ref = picked(fe::read_shape(part), {3, 17});
   const fe::Result r = fe::extract(ref, fe::read_shape(part, fe::tessellation_for_feature(ref.diagonal())));
   auto has = [](const fe::Match& m, int f) { return std::find(m.faces.begin(), m.faces.end(), f) != m.faces.end(); };
   int steps = 0;
