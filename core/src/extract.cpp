@@ -325,7 +325,6 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     FeatureCore topology_core;
     topology_core.set = true;
     topology_core.dense_feature = mask;
-    topology_core.open_faces = core.open_faces;
     topology_core.open_border = core.open_border;
     topology_core.open_border_face = core.open_border_face;
     // A topology match has matched every face, so the stretch bounds are wider (topology_*).
@@ -523,11 +522,10 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   check_sizes(reference, target, params_in);
   FeatureCore fc = feature_core(reference_in, sr.cut);
   if (params_in.max_overhang > 0) {
-    std::vector<char> open = faces_on_border(reference);
-    if (std::find(open.begin(), open.end(), 1) != open.end()) {
-      fc.open_faces = std::make_shared<const std::vector<char>>(std::move(open));
-      std::vector<int> bface;
-      fc.open_border = std::make_shared<const Points>(open_border_points(reference, 0.005 * reference.diagonal(), &bface));
+    std::vector<int> bface;
+    Points border = open_border_points(reference, 0.005 * reference.diagonal(), &bface);
+    if (border.rows() > 0) {
+      fc.open_border = std::make_shared<const Points>(std::move(border));
       fc.open_border_face = std::make_shared<const std::vector<int>>(std::move(bface));
     }
   }

@@ -96,21 +96,10 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
     for (Eigen::Index i : kr) { eval_pts_.row(k) = R.keys.row(i); eval_nrm_.row(k++) = R.key_normals.row(i); }
     for (Eigen::Index i : dr) { eval_pts_.row(k) = R.dense.points.row(i); eval_nrm_.row(k++) = R.dense_normals.row(i); }
   }
-  // Samples of faces that reach the reference's border (they may run past the end of the target's).
-  if (core.open_faces && R.dense.face_ids.size() == R.dense.points.rows() && p.max_overhang > 0) {
-    const std::vector<char>& of = *core.open_faces;
-    open_dense_.assign(static_cast<std::size_t>(R.dense.points.rows()), 0);
-    bool any = false;
-    for (Eigen::Index i = 0; i < R.dense.points.rows(); ++i) {
-      const int f = R.dense.face_ids(i);
-      open_dense_[static_cast<std::size_t>(i)] = f > 0 && static_cast<std::size_t>(f) < of.size() && of[static_cast<std::size_t>(f)];
-      any = any || open_dense_[static_cast<std::size_t>(i)];
-    }
-    if (!any) open_dense_.clear();
-  }
-  if (!open_dense_.empty() && core.open_border && core.open_border_face && core.open_border->rows() > 0 &&
-      core.open_border_face->size() == static_cast<std::size_t>(core.open_border->rows())) {
-    // distance of each open sample to its own face's part of the border
+  // Samples of faces that reach the reference's border (they may run past the end of the target's),
+  // and their distance to their own face's part of the border.
+  if (core.open_border && core.open_border_face && core.open_border->rows() > 0 && p.max_overhang > 0 &&
+      core.open_border_face->size() == static_cast<std::size_t>(core.open_border->rows()) && R.dense.face_ids.size() == R.dense.points.rows()) {
     std::map<int, std::vector<Eigen::Index>> of_face;
     for (Eigen::Index k = 0; k < core.open_border->rows(); ++k) of_face[(*core.open_border_face)[static_cast<std::size_t>(k)]].push_back(k);
     std::map<int, std::unique_ptr<KdTree3>> trees;
@@ -119,13 +108,24 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
       for (std::size_t k = 0; k < rows.size(); ++k) P.row(static_cast<Eigen::Index>(k)) = core.open_border->row(rows[k]);
       trees[f] = std::make_unique<KdTree3>(P);
     }
+    open_dense_.assign(static_cast<std::size_t>(R.dense.points.rows()), 0);
     border_dist_.assign(static_cast<std::size_t>(R.dense.points.rows()), INFINITY);
+    bool any = false;
     for (Eigen::Index i = 0; i < R.dense.points.rows(); ++i) {
-      if (!open_dense_[static_cast<std::size_t>(i)]) continue;
-      const auto it = trees.find(R.dense.face_ids(i));
+      const int f = R.dense.face_ids(i);
+      const auto it = f > 0 ? trees.find(f) : trees.end();
       double d2;
-      if (it != trees.end() && it->second->nearest(R.dense.points.row(i).transpose(), &d2) >= 0) border_dist_[static_cast<std::size_t>(i)] = std::sqrt(d2);
+      if (it == trees.end() || it->second->nearest(R.dense.points.row(i).transpose(), &d2) < 0) continue;
+      open_dense_[static_cast<std::size_t>(i)] = 1;
+      border_dist_[static_cast<std::size_t>(i)] = std::sqrt(d2);
+      any = true;
     }
+    if (!any) {
+      open_dense_.clear();
+      border_dist_.clear();
+    }
+  }
+  if (!open_dense_.empty()) {
     eval_open_.assign(static_cast<std::size_t>(eval_pts_.rows()), 0);
     eval_border_dist_.assign(static_cast<std::size_t>(eval_pts_.rows()), INFINITY);
     eval_face_.assign(static_cast<std::size_t>(eval_pts_.rows()), 0);
@@ -136,8 +136,6 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
       eval_border_dist_[static_cast<std::size_t>(k)] = border_dist_[static_cast<std::size_t>(j)];
       eval_face_[static_cast<std::size_t>(k)] = R.dense.face_ids(j);
     }
-  } else {
-    open_dense_.clear();
   }
   normal_penalty_ = 2.0 * p.accept_error * L_;
   dense_rows_ = stride_subset(core_dense_, 1500);
@@ -396,6 +394,7 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
   std::vector<double> err(dense_rows_.size()), dist(open_dense_.empty() ? 0 : dense_rows_.size());
   std::vector<int> face(dist.size());
   std::vector<char> is_on(dense_rows_.size(), 0);
+  std::vector<double> e2(dense_rows_.size());
   double sq = 0;
   for (std::size_t k = 0; k < dense_rows_.size(); ++k) {
     const Eigen::Vector3d x = R_.dense.points.row(dense_rows_[k]);
@@ -404,7 +403,8 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
     ev.mapped.row(static_cast<Eigen::Index>(k)) = y;
     int j;
     const double e = surface_distance(T_, y, &j);
-    sq += std::isfinite(e) ? e * e : tol * tol * 100;
+    e2[k] = std::isfinite(e) ? e * e : tol * tol * 100;
+    sq += e2[k];
     err[k] = std::isfinite(e) ? e : tol * 10;
     if (!dist.empty()) {
       dist[k] = border_dist_[static_cast<std::size_t>(dense_rows_[k])];
@@ -426,9 +426,7 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
     on += is_on[k];
     if (err[k] == kOverhang) {
       ++over;
-      const Eigen::Vector3d y = ev.mapped.row(static_cast<Eigen::Index>(k));
-      const double e = surface_distance(T_, y);
-      sq_over += std::isfinite(e) ? e * e : tol * tol * 100;
+      sq_over += e2[k];
     }
   }
   // Samples that run past the end of the target's surface are left out of the score and the RMS

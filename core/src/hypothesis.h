@@ -30,11 +30,9 @@ struct FeatureCore {
   /// 1 = feature, 2 = feature whose face was cut short (not held to the whole-faces check). Key points
   /// take their nearest dense sample's. (The faces a topology match holds, topology.h.)
   std::shared_ptr<const std::vector<char>> dense_feature;
-  /// Per B-rep face of the reference (faces_on_border): 1 where the face reaches the reference's
-  /// border, so that it may run past the end of its face on an instance (HypothesisScorer::overhangs).
-  std::shared_ptr<const std::vector<char>> open_faces;
-  /// Points along the reference's open border (open_border_points), in the reference's frame: a face
-  /// may overhang only on its side toward the border (HypothesisScorer::overhangs).
+  /// Points along the reference's open border (open_border_points), in the reference's frame. The
+  /// B-rep faces they lie on (open_border_face) reach the border, so they may run past the end of
+  /// their face on an instance, on their side toward the border (HypothesisScorer::overhangs).
   std::shared_ptr<const Points> open_border;
   std::shared_ptr<const std::vector<int>> open_border_face;  ///< the B-rep face of each open_border point
   bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
@@ -109,7 +107,7 @@ class HypothesisScorer {
   /// Distance from y to the nearest target dense sample (its index in *j).
   double target_distance(const Eigen::Vector3d& y, int* j = nullptr) const;
 
-  /// Does a reference sample of a face that reaches the reference's border (FeatureCore::open_faces),
+  /// Does a reference sample of a face that reaches the reference's border (FeatureCore::open_border),
   /// mapped to y with unit normal nm, off the target (farther than the acceptance tolerance from its
   /// nearest target sample j, or with another facing), run on past the end of the target's surface? It does when y lies in free space (in
   /// front of its nearest target samples, none behind) and on the continuation of a target surface of

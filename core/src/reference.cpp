@@ -197,27 +197,6 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
   return out;
 }
 
-std::vector<char> faces_on_border(const TriangleMesh& m) {
-  if (!m.from_brep() || m.triangles.rows() == 0) return {};
-  const double diag = m.diagonal();
-  if (!(diag > 0)) return {};
-  const std::vector<int> vid = weld(m.vertices, 1e-7 * diag);
-  std::unordered_map<std::uint64_t, int> uses;  // welded edge -> triangles using it
-  auto key = [&](Eigen::Index t, int k) {
-    const auto u = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, k))]);
-    const auto w = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, (k + 1) % 3))]);
-    return std::min(u, w) << 32 | std::max(u, w);
-  };
-  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
-    for (int k = 0; k < 3; ++k) ++uses[key(t, k)];
-  std::vector<char> out(static_cast<std::size_t>(m.num_faces + 1), 0);
-  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t)
-    for (int k = 0; k < 3; ++k)
-      if (uses[key(t, k)] == 1) out[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
-  out[0] = 0;
-  return out;
-}
-
 Points open_border_points(const TriangleMesh& m, double step, std::vector<int>* face) {
   face->clear();
   if (!m.from_brep() || m.triangles.rows() == 0 || !(step > 0)) return Points(0, 3);
@@ -249,6 +228,16 @@ Points open_border_points(const TriangleMesh& m, double step, std::vector<int>* 
     out.row(static_cast<Eigen::Index>(i)) << std::get<1>(pts[i]), std::get<2>(pts[i]), std::get<3>(pts[i]);
     face->push_back(std::get<0>(pts[i]));
   }
+  return out;
+}
+
+std::vector<char> faces_on_border(const TriangleMesh& m) {
+  std::vector<int> face;
+  open_border_points(m, INFINITY, &face);  // one point per open edge is enough to know its face
+  if (!m.from_brep() || m.triangles.rows() == 0) return {};
+  std::vector<char> out(static_cast<std::size_t>(m.num_faces + 1), 0);
+  for (const int f : face) out[static_cast<std::size_t>(std::clamp(f, 0, m.num_faces))] = 1;
+  out[0] = 0;
   return out;
 }
 
