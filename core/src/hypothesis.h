@@ -92,8 +92,9 @@ class HypothesisScorer {
   /// reference units; +inf out of bounds, off the target, or as soon as it cannot come under `limit`.
   double cost(const Eigen::Matrix4d& H, double limit = INFINITY) const;
   /// The truncated mean error over 40 of the evaluation points at scale s, no bounds test (one-pair
-  /// placements, before the refinement brings them within the bounds); +inf as soon as the mean is
-  /// sure to exceed `limit` (the sum only grows), the exact value otherwise.
+  /// placements, before the refinement brings them within the bounds) and no overhang test (a sample
+  /// past the end of the target counts as off it); +inf as soon as the mean is sure to exceed `limit`
+  /// (the sum only grows), the exact value otherwise.
   double screen_cost(const Eigen::Matrix4d& H, double s, double limit = INFINITY) const;
   /// Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile), reference units.
   double quantile_error(const Eigen::Matrix4d& H) const;
@@ -132,7 +133,7 @@ class HypothesisScorer {
   const std::vector<std::vector<int>>& target_face_samples() const { return face_rows_; }
 
  private:
-  double point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped) const;
+  double point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped, bool overhang = true) const;
   bool point_errors(const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped) const;
   double overhang_share(const std::vector<double>& errs) const;
   /// Does dense sample `row` of the reference, mapped by H (at scale s) to y at distance e from its

@@ -16,6 +16,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <memory>
 #include <set>
 
 namespace {
@@ -231,6 +233,54 @@ TEST_F(SelfMatch, TheScreeningStopsOnlyWhatCannotComeUnderItsLimit) {
   EXPECT_EQ(scorer.screen_cost(H, 1.0, 2 * full), full);
   EXPECT_TRUE(std::isinf(scorer.screen_cost(H, 1.0, 0.99 * full)));
   EXPECT_TRUE(std::isinf(scorer.screen_cost(H, 1.0, 0.0)));
+}
+
+// RANSAC's cost stops a hypothesis once its truncated sum cannot come under the limit, one sample
+// after another, where the cost without a limit is summed over all samples at once on every thread:
+// with samples that overhang (costed at the acceptance bound), the limited cost must still be the
+// exact one under the limit and +inf over it. Here every sample of the rib's largest face counts as
+// reaching an open border, and the rib is slid along that face, so that part of it runs past the
+// face's end.
+TEST_F(SelfMatch, TheCostWithOverhangingSamplesStopsOnlyWhatCannotComeUnderItsLimit) {
+  const Eigen::VectorXi& ids = R().dense.face_ids;
+  ASSERT_EQ(ids.size(), R().dense.points.rows());
+  std::map<int, int> count;
+  for (Eigen::Index i = 0; i < ids.size(); ++i) ++count[ids(i)];
+  const int face = std::max_element(count.begin(), count.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < ids.size(); ++i)
+    if (ids(i) == face) rows.push_back(i);
+  auto border = std::make_shared<fe::Points>(static_cast<Eigen::Index>(rows.size()), 3);
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    border->row(static_cast<Eigen::Index>(k)) = R().dense.points.row(rows[k]);
+    normal += R().dense_normals.row(rows[k]).transpose();
+  }
+  fe::FeatureCore core;
+  core.open_border = border;
+  core.open_border_face = std::make_shared<const std::vector<int>>(rows.size(), face);
+  const fe::HypothesisScorer scorer(R(), T(), params, core);
+  const double L = R().L;
+  // slid within the face's plane, along its longest extent
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d span = border->colwise().maxCoeff() - border->colwise().minCoeff();
+  Eigen::Index axis;
+  (span - span.dot(n) * n).cwiseAbs().maxCoeff(&axis);
+  Eigen::Vector3d along = Eigen::Vector3d::Unit(axis);
+  along = (along - along.dot(n) * n).normalized();
+  int tried = 0;
+  for (const double shift : {0.05, 0.1, 0.2}) {
+    const Eigen::Matrix4d H = moved(shift * L * along, 0);
+    if (scorer.evaluate(H, 1.0, true).overhang <= 0) continue;
+    ++tried;
+    const double full = scorer.cost(H);
+    ASSERT_TRUE(std::isfinite(full));
+    ASSERT_GT(full, 0.0);
+    EXPECT_EQ(scorer.cost(H, full), full) << "shift " << shift;
+    EXPECT_EQ(scorer.cost(H, 2 * full), full) << "shift " << shift;
+    EXPECT_TRUE(std::isinf(scorer.cost(H, 0.99 * full))) << "shift " << shift;
+  }
+  EXPECT_GT(tried, 0) << "no slide made the face overhang";
 }
 
 TEST_F(SelfMatch, OnePairPlacementsAreTheSameOnOneThreadAndOnTwo) {
