@@ -232,9 +232,9 @@ Points open_border_points(const TriangleMesh& m, double step, std::vector<int>* 
 }
 
 std::vector<char> faces_on_border(const TriangleMesh& m) {
+  if (!m.from_brep() || m.triangles.rows() == 0) return {};
   std::vector<int> face;
   open_border_points(m, INFINITY, &face);  // one point per open edge is enough to know its face
-  if (!m.from_brep() || m.triangles.rows() == 0) return {};
   std::vector<char> out(static_cast<std::size_t>(m.num_faces + 1), 0);
   for (const int f : face) out[static_cast<std::size_t>(std::clamp(f, 0, m.num_faces))] = 1;
   out[0] = 0;
