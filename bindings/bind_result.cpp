@@ -56,6 +56,7 @@ void bind_result(py::module_& m) {
       .def_readonly("reference_mirror_symmetric", &fe::Result::reference_mirror_symmetric)
       .def_readonly("reference_closed", &fe::Result::reference_closed, "the reference is a closed surface (a solid)")
       .def_readonly("reference_cut_faces", &fe::Result::reference_cut_faces, "1-based reference faces treated as cut and not searched")
+      .def_readonly("reference_own_faces", &fe::Result::reference_own_faces, "1-based faces on the reference's box that lie on the target where the reference was cut out of it: the part's own faces, not cut (not searched either)")
       .def_readonly("reference_cut_triangles", &fe::Result::reference_cut_triangles)
       .def_readonly("reference_cut_sides", &fe::Result::reference_cut_sides,
                     "sides of the reference's box ('-x' ... '+z') where it was cut out; the 20 % next to them is context")

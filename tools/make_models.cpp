@@ -816,6 +816,35 @@ int main(int argc, char** argv) {
     }
     BRepTools::Write(picked, (dir + "/counterbore_reference.brep").c_str());
   }
+  // Triangular blind steps at the corners of a block's top (issue 9; bench/user_cases.py's
+  // corner_step_block): a triangular floor and one wall, open toward the block's two sides there,
+  // among other floors meeting walls (a rectangular pocket, a through slot). Reference: the first
+  // step cut out with the bench's box (its faces' box grown by 10 % of its diagonal), which reaches
+  // past the block on three sides: the block's own faces lie on the box there.
+  {
+    const double W = 100, D = 80, H = 40;
+    TopoDS_Shape block = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, 0), W, D, H).Shape();
+    const double steps[][5] = {{0, 0, 20, 20, 10}, {100, 0, 30, 15, 8}, {100, 80, 14, 14, 7}, {0, 80, 24, 30, 14}};  // corner x, y, legs, depth
+    truth << "  \"corner_step_block.step\": [";
+    for (int i = 0; i < 4; ++i) {
+      const double* c = steps[i];
+      const double sx = c[0] == 0 ? 1 : -1, sy = c[1] == 0 ? 1 : -1, e = 1;
+      BRepBuilderAPI_MakePolygon tri(gp_Pnt(c[0] - sx * e, c[1] - sy * e, H - c[4]), gp_Pnt(c[0] + sx * c[2] * (1 + e / c[3]), c[1] - sy * e, H - c[4]),
+                                     gp_Pnt(c[0] - sx * e, c[1] + sy * c[3] * (1 + e / c[2]), H - c[4]), true);
+      block = BRepAlgoAPI_Cut(block, BRepPrimAPI_MakePrism(BRepBuilderAPI_MakeFace(tri.Wire()).Face(), gp_Vec(0, 0, c[4] + 1)).Shape()).Shape();
+      truth << (i ? ", " : "") << json_point(c[0] + sx * c[2] / 3, c[1] + sy * c[3] / 3, H - c[4]);
+    }
+    truth << "],\n";
+    block = BRepAlgoAPI_Cut(block, BRepPrimAPI_MakeBox(gp_Pnt(55, 30, H - 10), 20, 20, 11).Shape()).Shape();  // rectangular pocket
+    block = BRepAlgoAPI_Cut(block, BRepPrimAPI_MakeBox(gp_Pnt(40, -1, H - 8), 8, D + 2, 9).Shape()).Shape();  // through slot along y
+    write_step(block, dir + "/corner_step_block.step");
+    // the first step's floor (z 30, x + y <= 20) and wall: their box, grown by 10 % of its diagonal
+    const double x0 = 0, y0 = 0, z0 = 30, x1 = 20, y1 = 20, z1 = 40;
+    const double m = 0.1 * std::sqrt((x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0) + (z1 - z0) * (z1 - z0));
+    BRepAlgoAPI_Common common(block, BRepPrimAPI_MakeBox(gp_Pnt(x0 - m, y0 - m, z0 - m), gp_Pnt(x1 + m, y1 + m, z1 + m)).Shape());
+    if (!common.IsDone()) die("box cut of the corner step failed");
+    BRepTools::Write(common.Shape(), (dir + "/corner_step_boxcut_reference.brep").c_str());
+  }
   // bad-input helpers: a flat reference and a target with nothing similar
   write_step(BRepBuilderAPI_MakeFace(gp_Pln(gp::Origin(), gp::DZ()), 0, 30, 0, 20).Shape(), dir + "/flat_reference.step");
   write_step(part(120, 80, {}, {{30, 40}, {90, 40, 8, 10}}), dir + "/boss_only.step");

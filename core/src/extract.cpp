@@ -465,11 +465,28 @@ std::string description_key(double L, const Params& p) {
 struct SearchedReference {
   TriangleMesh mesh;
   CutFaces cut;
+  std::size_t own_faces = 0;  ///< box faces kept as the part's own (cut_faces_on_target): faces, or triangles of mesh input
+  std::vector<int> own_face_ids;  ///< those faces' 1-based numbers (B-rep input)
 };
-SearchedReference searched_reference(const TriangleMesh& reference, const Params& p) {
+SearchedReference searched_reference(const TriangleMesh& reference, const TriangleMesh& target, const Params& p) {
   SearchedReference r;
   if (p.detect_cut_faces) r.cut = detect_cut_faces(reference);
-  r.mesh = r.cut.triangles > 0 ? without_triangles(reference, r.cut.cut_triangle) : reference;
+  // Box faces that are the part's own (the box reached past the part there) are left out of the
+  // search like cut faces, but their sides are not cut: the faces that end on them are whole there
+  // (judged like picked faces: the whole-faces check, the open border's overhang), and the 20 %
+  // next to those sides is not context.
+  std::vector<char> drop = r.cut.cut_triangle;
+  if (r.cut.triangles > 0 && p.cut_faces_on_target) {
+    const std::vector<char> own = cut_faces_on_target(reference, r.cut, target, 0.01 * reference.diagonal());
+    const std::size_t before = r.cut.faces.size(), triangles = r.cut.triangles;
+    const std::vector<int> faces_before = r.cut.faces;
+    r.cut = without_own_faces(reference, r.cut, own);
+    r.own_faces = reference.from_brep() ? before - r.cut.faces.size() : triangles - r.cut.triangles;
+    for (int f : faces_before)
+      if (!std::binary_search(r.cut.faces.begin(), r.cut.faces.end(), f)) r.own_face_ids.push_back(f);
+  }
+  const bool any = std::any_of(drop.begin(), drop.end(), [](char c) { return c != 0; });
+  r.mesh = any ? without_triangles(reference, drop) : reference;
   return r;
 }
 
@@ -517,7 +534,7 @@ void band_skipped(Result& out, const ScaleBand& band, const std::string& why) {
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
                      TargetFor target_for) {
-  const SearchedReference sr = searched_reference(reference_in, params_in);
+  const SearchedReference sr = searched_reference(reference_in, target, params_in);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
   FeatureCore fc = feature_core(reference_in, sr.cut);
@@ -628,6 +645,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   });
   res.reference_closed = sr.cut.closed;
   res.reference_cut_faces = sr.cut.faces;
+  res.reference_own_faces = sr.own_face_ids;
   res.reference_cut_triangles = sr.cut.triangles;
   static const char* const kSide[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   std::string sides;
@@ -647,6 +665,14 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": closed reference, searched without its "
       << (sr.cut.faces.empty() ? std::to_string(sr.cut.triangles) + " cut triangles" : std::to_string(sr.cut.faces.size()) + " cut face(s)")
       << " (planar faces on its bounding box where it was cut out; detect_cut_faces)";
+    res.warnings.push_back(w.str());
+  }
+  if (sr.own_faces > 0) {
+    std::ostringstream w;
+    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": " << sr.own_faces
+      << (reference_in.from_brep() ? " face(s)" : " triangle(s)") << " on its bounding box lie on "
+      << (target.source.empty() ? std::string("the target") : target.source)
+      << "'s surface where it was cut out of it: the part's own faces, where the box reached past the part; left out like cut faces, but the faces ending on them are whole there (cut_faces_on_target)";
     res.warnings.push_back(w.str());
   }
   return res;

@@ -1,6 +1,7 @@
 // References as users make them: cut faces of a box-cut solid, mirror images (see reference.h).
 #include "featureextract/reference.h"
 
+#include "featureextract/geometry.h"
 #include "kdtree.h"
 
 #include <Eigen/Dense>
@@ -238,6 +239,124 @@ std::vector<char> faces_on_border(const TriangleMesh& m) {
   std::vector<char> out(static_cast<std::size_t>(m.num_faces + 1), 0);
   for (const int f : face) out[static_cast<std::size_t>(std::clamp(f, 0, m.num_faces))] = 1;
   out[0] = 0;
+  return out;
+}
+
+namespace {
+
+// The bounding-box plane (0..5 = -x, +x, -y, +y, -z, +z) a triangle lies in, facing out, or -1.
+int box_plane(const TriangleMesh& m, Eigen::Index t, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double tol) {
+  const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
+  const Eigen::Vector3d n = (b - a).cross(c - a);
+  if (!(n.norm() > 0)) return -1;
+  const Eigen::Vector3d u = n.normalized();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const double w = side ? hi(axis) : lo(axis);
+      const double facing = side ? u(axis) : -u(axis);
+      if (facing > 0.999 && std::abs(a(axis) - w) <= tol && std::abs(b(axis) - w) <= tol && std::abs(c(axis) - w) <= tol) return 2 * axis + side;
+    }
+  return -1;
+}
+
+// Is x (outward normal n) on the surface sampled in `tree` (points P, normals N): a sample within
+// `reach` whose normal agrees, among its 4 nearest (beside an edge the nearest may be the other face's)?
+bool on_sampled_surface(const KdTree3& tree, const Samples& S, const Eigen::Vector3d& x, const Eigen::Vector3d& n, double reach) {
+  thread_local std::vector<int> idx;
+  thread_local std::vector<float> d2;
+  tree.knn(x, 4, idx, d2);
+  for (std::size_t k = 0; k < idx.size(); ++k)
+    if (std::sqrt(static_cast<double>(d2[k])) <= reach && n.dot(S.normals.row(idx[k]).transpose()) > 0.9) return true;
+  return false;
+}
+
+}  // namespace
+
+std::vector<char> cut_faces_on_target(const TriangleMesh& reference, const CutFaces& cut, const TriangleMesh& target, double spacing) {
+  const Eigen::Index T = reference.triangles.rows();
+  std::vector<char> own(static_cast<std::size_t>(T), 0);
+  if (cut.triangles == 0 || cut.cut_triangle.size() != static_cast<std::size_t>(T) || !(spacing > 0) || target.triangles.rows() == 0) return own;
+  // the target's triangles near the reference's box, sampled like it
+  const Eigen::Vector3d lo = reference.vertices.colwise().minCoeff().transpose().array() - 2 * spacing;
+  const Eigen::Vector3d hi = reference.vertices.colwise().maxCoeff().transpose().array() + 2 * spacing;
+  std::vector<char> far(static_cast<std::size_t>(target.triangles.rows()), 1);
+  bool any = false;
+  for (Eigen::Index t = 0; t < target.triangles.rows(); ++t) {
+    Eigen::Vector3d tl = Eigen::Vector3d::Constant(INFINITY), th = Eigen::Vector3d::Constant(-INFINITY);
+    for (int k = 0; k < 3; ++k) {
+      tl = tl.cwiseMin(target.vertices.row(target.triangles(t, k)).transpose());
+      th = th.cwiseMax(target.vertices.row(target.triangles(t, k)).transpose());
+    }
+    if ((th.array() >= lo.array()).all() && (tl.array() <= hi.array()).all()) far[static_cast<std::size_t>(t)] = 0, any = true;
+  }
+  if (!any) return own;
+  const TriangleMesh near = without_triangles(target, far);
+  // (a target far larger than the reference around it would take too many samples: not this case)
+  double area = 0;
+  for (Eigen::Index t = 0; t < near.triangles.rows(); ++t)
+    area += 0.5 * (near.vertices.row(near.triangles(t, 1)) - near.vertices.row(near.triangles(t, 0)))
+                      .cross(near.vertices.row(near.triangles(t, 2)) - near.vertices.row(near.triangles(t, 0)))
+                      .norm();
+  if (!(area / (spacing * spacing) < 4e6)) return own;
+  const Samples ts = sample_surface(near, spacing, 11);
+  if (ts.size() == 0) return own;
+  const KdTree3 tree(ts.points);
+  const double reach = 1.5 * spacing;
+  // unmoved? the reference's other faces on the target
+  const TriangleMesh rest = without_triangles(reference, cut.cut_triangle);
+  if (rest.triangles.rows() == 0) return own;
+  const Samples rs = sample_surface(rest, spacing, 12);
+  std::size_t on = 0;
+  for (Eigen::Index i = 0; i < rs.points.rows(); ++i) on += on_sampled_surface(tree, ts, rs.points.row(i).transpose(), rs.normals.row(i).transpose(), reach) ? 1 : 0;
+  if (rs.size() == 0 || static_cast<double>(on) < 0.9 * static_cast<double>(rs.size())) return own;
+  // each cut face (B-rep face, or triangle of mesh input) on the target?
+  std::vector<char> uncut(static_cast<std::size_t>(T));
+  std::vector<Eigen::Index> cut_rows;  // the cut mesh's triangle k is reference triangle cut_rows[k]
+  for (Eigen::Index t = 0; t < T; ++t) {
+    uncut[static_cast<std::size_t>(t)] = !cut.cut_triangle[static_cast<std::size_t>(t)];
+    if (cut.cut_triangle[static_cast<std::size_t>(t)]) cut_rows.push_back(t);
+  }
+  const TriangleMesh cm = without_triangles(reference, uncut);
+  const Samples cs = sample_surface(cm, spacing, 13);
+  const bool by_face = reference.from_brep();
+  std::map<long, std::pair<std::size_t, std::size_t>> tally;  // group -> (on, all)
+  for (Eigen::Index i = 0; i < cs.points.rows(); ++i) {
+    const Eigen::Index tri = cut_rows[static_cast<std::size_t>(cs.triangle_ids(i))];
+    const long g = by_face ? static_cast<long>(reference.face_ids(tri)) : static_cast<long>(tri);
+    auto& c = tally[g];
+    c.first += on_sampled_surface(tree, ts, cs.points.row(i).transpose(), cs.normals.row(i).transpose(), reach) ? 1 : 0;
+    ++c.second;
+  }
+  for (const Eigen::Index t : cut_rows) {
+    const long g = by_face ? static_cast<long>(reference.face_ids(t)) : static_cast<long>(t);
+    const auto it = tally.find(g);
+    if (it != tally.end() && it->second.second >= 3 && static_cast<double>(it->second.first) >= 0.8 * static_cast<double>(it->second.second))
+      own[static_cast<std::size_t>(t)] = 1;
+  }
+  return own;
+}
+
+CutFaces without_own_faces(const TriangleMesh& m, const CutFaces& cut, const std::vector<char>& own) {
+  CutFaces out = cut;
+  const Eigen::Index T = m.triangles.rows();
+  if (own.size() != static_cast<std::size_t>(T) || cut.cut_triangle.size() != own.size()) return out;
+  const Eigen::Vector3d lo = m.vertices.colwise().minCoeff().transpose(), hi = m.vertices.colwise().maxCoeff().transpose();
+  const double tol = 2e-3 * (hi - lo).norm();  // detect_cut_faces' default tolerance
+  out.cut_sides.fill(false);
+  out.triangles = 0;
+  out.faces.clear();
+  std::vector<char> is_cut(static_cast<std::size_t>(std::max(m.num_faces, 0) + 1), 0);
+  for (Eigen::Index t = 0; t < T; ++t) {
+    char& c = out.cut_triangle[static_cast<std::size_t>(t)];
+    if (own[static_cast<std::size_t>(t)]) c = 0;
+    if (!c) continue;
+    ++out.triangles;
+    const int p = box_plane(m, t, lo, hi, tol);
+    if (p >= 0) out.cut_sides[static_cast<std::size_t>(p)] = true;
+    if (m.from_brep()) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
+  }
+  for (int f = 1; f <= m.num_faces; ++f)
+    if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
   return out;
 }
 

@@ -46,6 +46,7 @@ std::string result_to_json(const Result& r, int indent) {
   j["reference"] = stats(r.reference);
   j["reference"]["closed"] = r.reference_closed;
   j["reference"]["cut_faces"] = r.reference_cut_faces;
+  j["reference"]["own_faces"] = r.reference_own_faces;
   j["reference"]["cut_triangles"] = r.reference_cut_triangles;
   j["reference"]["cut_sides"] = r.reference_cut_sides;
   j["reference"]["mirror_symmetric"] = r.reference_mirror_symmetric;

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 
@@ -132,20 +133,80 @@ TEST(CutFaces, AClosedBoxIsAFeatureNotAllCut) {
   EXPECT_EQ(open.triangles, 0u);
 }
 
+TEST(CutFaces, BoxFacesOnThePartWhereTheReferenceWasCutOutOfItAreThePartsOwn) {
+  // the rib's box reached below the plate: the plate's bottom inside the box lies on the box's -z
+  // side and reaches its other sides, so detect_cut_faces takes it for cut; on the part the
+  // reference was cut out of, it lies on the part's surface, the four box sides inside the plate do not
+  const fe::TriangleMesh ref = fe::read_shape(models() + "/rib_boxcut_reference.brep");
+  const fe::TriangleMesh part = fe::read_shape(models() + "/ribs_bosses.step", fe::tessellation_for_feature(ref.diagonal()));
+  const fe::CutFaces c = fe::detect_cut_faces(ref);
+  ASSERT_EQ(c.faces.size(), 5u);
+  const double h = 0.01 * ref.diagonal();
+  const std::vector<char> own = fe::cut_faces_on_target(ref, c, part, h);
+  ASSERT_EQ(own.size(), static_cast<std::size_t>(ref.triangles.rows()));
+  const double zlo = ref.vertices.col(2).minCoeff();
+  std::size_t own_triangles = 0;
+  for (Eigen::Index t = 0; t < ref.triangles.rows(); ++t) {
+    if (!own[static_cast<std::size_t>(t)]) continue;
+    ++own_triangles;
+    EXPECT_TRUE(c.cut_triangle[static_cast<std::size_t>(t)]) << t;  // only cut faces are looked at
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(ref.vertices(ref.triangles(t, k), 2), zlo, 1e-6) << "triangle " << t << " is not on the plate's bottom";
+  }
+  EXPECT_GT(own_triangles, 0u);
+  const fe::CutFaces kept = fe::without_own_faces(ref, c, own);
+  EXPECT_EQ(kept.faces.size(), 4u);
+  EXPECT_EQ(kept.triangles, c.triangles - own_triangles);
+  EXPECT_FALSE(kept.cut_sides[4]);  // -z: only the part's own face lay there
+  for (int s : {0, 1, 2, 3}) EXPECT_TRUE(kept.cut_sides[static_cast<std::size_t>(s)]) << s;
+  // the same reference on the part moved 3 mm: it does not sit there unmoved, nothing is own
+  fe::TriangleMesh moved = part;
+  moved.vertices.col(0).array() += 3.0;
+  const std::vector<char> none = fe::cut_faces_on_target(ref, c, moved, h);
+  EXPECT_EQ(std::count(none.begin(), none.end(), 1), 0);
+}
+
 TEST(CutFaces, BoxCutReferenceFindsEveryRibAndSaysWhatWasCut) {
   // issue 9: a box-cut reference found 0 of the ribs before its cut faces were set aside
   const fe::Result r = run("rib_boxcut_reference.brep", "ribs_bosses.step");
   EXPECT_TRUE(r.reference_closed);
-  EXPECT_EQ(r.reference_cut_faces.size(), 5u);
+  // 4 box sides; the plate's bottom, on the box's -z side too, is the part's own face (the
+  // reference was cut out of this part: cut_faces_on_target)
+  EXPECT_EQ(r.reference_cut_faces.size(), 4u);
   ASSERT_EQ(r.matches.size(), 5u);
   // the truth held in a variable: a range-for over truth()[...] read a destroyed temporary (ASan)
   const auto t = truth();
   for (const auto& rib : t["ribs_bosses.step"]["ribs"]) EXPECT_GE(match_near(r, rib[0], rib[1], 4.0), 0) << "rib " << rib;
   for (const auto& b : t["ribs_bosses.step"]["bosses"]) EXPECT_LT(match_near(r, b[0], b[1], 15.0), 0) << "boss " << b;
+  // without looking at the target, the plate's bottom is taken for cut too, and the ribs are found alike
+  fe::Params blind;
+  blind.cut_faces_on_target = false;
+  const fe::Result rb = run("rib_boxcut_reference.brep", "ribs_bosses.step", blind);
+  EXPECT_EQ(rb.reference_cut_faces.size(), 5u);
+  EXPECT_EQ(rb.matches.size(), 5u);
   // without the detection the same reference finds nothing: the cut faces are what broke it
   fe::Params off;
   off.detect_cut_faces = false;
   EXPECT_LT(run("rib_boxcut_reference.brep", "ribs_bosses.step", off).matches.size(), 3u);
+}
+
+TEST(CutFaces, ACornerStepCutOutOfItsBlockKeepsTheBlocksOwnFacesOnTheBox) {
+  // A triangular blind step at a block's corner, cut out with a box that reaches past the block on
+  // three sides (-x, -y, +z): the block's two sides and top lie on the box there and reach its other
+  // sides, so detect_cut_faces takes them for cut, and the step's floor and wall, ending on them,
+  // for cut short. On the block itself they lie on the surface: only +x, +y and -z are cut.
+  const fe::Result r = run("corner_step_boxcut_reference.brep", "corner_step_block.step");
+  EXPECT_TRUE(r.reference_closed);
+  EXPECT_EQ(r.reference_cut_faces.size(), 3u);
+  EXPECT_EQ(r.reference_own_faces.size(), 3u);
+  EXPECT_EQ(r.reference_cut_sides, (std::vector<std::string>{"+x", "+y", "-z"}));
+  const auto t = truth();
+  for (const auto& c : t["corner_step_block.step"]) EXPECT_GE(match_near(r, c[0], c[1], 6.0), 0) << "step at " << c;
+  // without looking at the target all six sides are cut
+  fe::Params blind;
+  blind.cut_faces_on_target = false;
+  const fe::Result rb = run("corner_step_boxcut_reference.brep", "corner_step_block.step", blind);
+  EXPECT_EQ(rb.reference_cut_faces.size(), 6u);
+  EXPECT_EQ(rb.reference_cut_sides.size(), 6u);
 }
 
 TEST(CutFaces, ClosedStlCutIsDetectedWithoutFaces) {

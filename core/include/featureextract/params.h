@@ -76,6 +76,7 @@ struct Params {
   // --- references as users make them (issue 9)
   bool mirror = true;            ///< also search the reference's mirror image (unless it is its own); matches say "mirrored"
   bool detect_cut_faces = true;  ///< a closed reference (cut out with a box) is searched without its cut faces
+  bool cut_faces_on_target = true;  ///< of those, the ones on the target's surface where the reference sits on it unmoved are kept (the part's own faces)
 
   // --- result
   double face_coverage = 0.5;  ///< a target face is listed if this fraction of it is covered

@@ -38,6 +38,19 @@ struct CutFaces {
 /// coplanar triangles. `tolerance` is relative to the bounding-box diagonal.
 CutFaces detect_cut_faces(const TriangleMesh& mesh, double tolerance = 2e-3);
 
+/// The cut faces of a box-cut reference that are the part's own faces: where the reference sits on
+/// `target` unmoved (it was cut out of that very part: at least 90 % of its other faces' samples,
+/// `spacing` apart, lie on the target's surface with agreeing normals), a cut face (a B-rep face, or
+/// a triangle of mesh input) at least 80 % of whose samples lie on the target's surface too is one
+/// of the part's own faces that happens to lie on the box (the box reached past the part there: a
+/// corner step's floor meets the part's side faces and top on the box). Per triangle of `reference`,
+/// 1 for such a face; all 0 when the reference does not sit on the target unmoved.
+std::vector<char> cut_faces_on_target(const TriangleMesh& reference, const CutFaces& cut, const TriangleMesh& target, double spacing);
+
+/// `cut` without the triangles marked in `own` (they are kept as the reference's faces): the count,
+/// the B-rep faces and the cut sides again.
+CutFaces without_own_faces(const TriangleMesh& reference, const CutFaces& cut, const std::vector<char>& own);
+
 /// Per B-rep face number (0..num_faces): 1 where the face reaches the mesh's open border, the edge
 /// where a user stopped picking faces or where a cut face was left out (searched_reference). Such a
 /// face may end sooner on an instance: a bolt hole's cylinder picked in a 24 mm plate goes on for

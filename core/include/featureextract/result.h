@@ -54,6 +54,7 @@ struct Result {
   bool reference_mirror_symmetric = false;  ///< the reference is its own mirror image (no mirrored search needed)
   bool reference_closed = false;        ///< the reference is a closed surface (a solid)
   std::vector<int> reference_cut_faces; ///< 1-based reference faces treated as cut (not searched)
+  std::vector<int> reference_own_faces; ///< 1-based box faces found on the target's surface where the reference was cut out of it: the part's own, not cut (not searched either; Params::cut_faces_on_target)
   std::size_t reference_cut_triangles = 0;
   /// Sides of the reference's bounding box ("-x" ... "+z") where it was cut out (cut faces, or an
   /// open mesh region's border): the 20 % of the reference next to them is judged as context.
