@@ -25,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <functional>
 #include <sstream>
 
@@ -465,8 +466,8 @@ std::string description_key(double L, const Params& p) {
 struct SearchedReference {
   TriangleMesh mesh;
   CutFaces cut;
-  std::size_t own_faces = 0;  ///< box faces kept as the part's own (cut_faces_on_target): faces, or triangles of mesh input
-  std::vector<int> own_face_ids;  ///< those faces' 1-based numbers (B-rep input)
+  std::vector<int> own_faces;     ///< box faces kept as the part's own (cut_faces_on_target), 1-based (B-rep input)
+  std::size_t own_triangles = 0;  ///< their triangles
 };
 SearchedReference searched_reference(const TriangleMesh& reference, const TriangleMesh& target, const Params& p) {
   SearchedReference r;
@@ -477,13 +478,10 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Triang
   // next to those sides is not context.
   std::vector<char> drop = r.cut.cut_triangle;
   if (r.cut.triangles > 0 && p.cut_faces_on_target) {
-    const std::vector<char> own = cut_faces_on_target(reference, r.cut, target, 0.01 * reference.diagonal());
-    const std::size_t before = r.cut.faces.size(), triangles = r.cut.triangles;
-    const std::vector<int> faces_before = r.cut.faces;
-    r.cut = without_own_faces(reference, r.cut, own);
-    r.own_faces = reference.from_brep() ? before - r.cut.faces.size() : triangles - r.cut.triangles;
-    for (int f : faces_before)
-      if (!std::binary_search(r.cut.faces.begin(), r.cut.faces.end(), f)) r.own_face_ids.push_back(f);
+    const CutFaces all = r.cut;
+    r.cut = without_own_faces(reference, all, cut_faces_on_target(reference, all, target, 0.01 * reference.diagonal()));
+    r.own_triangles = all.triangles - r.cut.triangles;
+    std::set_difference(all.faces.begin(), all.faces.end(), r.cut.faces.begin(), r.cut.faces.end(), std::back_inserter(r.own_faces));
   }
   const bool any = std::any_of(drop.begin(), drop.end(), [](char c) { return c != 0; });
   r.mesh = any ? without_triangles(reference, drop) : reference;
@@ -645,7 +643,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   });
   res.reference_closed = sr.cut.closed;
   res.reference_cut_faces = sr.cut.faces;
-  res.reference_own_faces = sr.own_face_ids;
+  res.reference_own_faces = sr.own_faces;
   res.reference_cut_triangles = sr.cut.triangles;
   static const char* const kSide[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   std::string sides;
@@ -667,10 +665,10 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       << " (planar faces on its bounding box where it was cut out; detect_cut_faces)";
     res.warnings.push_back(w.str());
   }
-  if (sr.own_faces > 0) {
+  if (sr.own_triangles > 0) {
     std::ostringstream w;
-    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": " << sr.own_faces
-      << (reference_in.from_brep() ? " face(s)" : " triangle(s)") << " on its bounding box lie on "
+    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": "
+      << (reference_in.from_brep() ? std::to_string(sr.own_faces.size()) + " face(s)" : std::to_string(sr.own_triangles) + " triangle(s)") << " on its bounding box lie on "
       << (target.source.empty() ? std::string("the target") : target.source)
       << "'s surface where it was cut out of it: the part's own faces, where the box reached past the part; left out like cut faces, but the faces ending on them are whole there (cut_faces_on_target)";
     res.warnings.push_back(w.str());

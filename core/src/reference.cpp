@@ -1,6 +1,7 @@
 // References as users make them: cut faces of a box-cut solid, mirror images (see reference.h).
 #include "featureextract/reference.h"
 
+#include "description.h"
 #include "featureextract/geometry.h"
 #include "kdtree.h"
 
@@ -44,6 +45,38 @@ int find_root(std::vector<int>& parent, int i) {
 // border along -z, the whole width of that side).
 constexpr double kBorderShare = 0.1;
 constexpr double kSideSpan = 0.5;
+
+// The bounding-box plane (0..5 = -x, +x, -y, +y, -z, +z) a triangle lies in, facing out, or -1.
+int box_plane(const TriangleMesh& m, Eigen::Index t, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double tol) {
+  const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
+  const Eigen::Vector3d n = (b - a).cross(c - a);
+  if (!(n.norm() > 0)) return -1;
+  const Eigen::Vector3d u = n.normalized();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const double w = side ? hi(axis) : lo(axis);
+      const double facing = side ? u(axis) : -u(axis);
+      if (facing > 0.999 && std::abs(a(axis) - w) <= tol && std::abs(b(axis) - w) <= tol && std::abs(c(axis) - w) <= tol) return 2 * axis + side;
+    }
+  return -1;
+}
+
+// The count, the cut sides (from each cut triangle's bounding-box plane, `plane`) and the B-rep faces
+// of the triangles marked in out.cut_triangle.
+void summarize_cut(const TriangleMesh& m, const std::vector<int>& plane, CutFaces& out) {
+  out.triangles = 0;
+  out.cut_sides.fill(false);
+  out.faces.clear();
+  std::vector<char> is_cut(static_cast<std::size_t>(std::max(m.num_faces, 0) + 1), 0);
+  for (std::size_t t = 0; t < out.cut_triangle.size(); ++t) {
+    if (!out.cut_triangle[t]) continue;
+    ++out.triangles;
+    if (plane[t] >= 0) out.cut_sides[static_cast<std::size_t>(plane[t])] = true;
+    if (m.from_brep()) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(static_cast<Eigen::Index>(t)), 0, m.num_faces))] = 1;
+  }
+  for (int f = 1; f <= m.num_faces; ++f)
+    if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
+}
 
 }  // namespace
 
@@ -116,18 +149,9 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
   double total_area = 0;
   for (Eigen::Index t = 0; t < T; ++t) {
     const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
-    const Eigen::Vector3d n = (b - a).cross(c - a);
-    area[static_cast<std::size_t>(t)] = 0.5 * n.norm();
+    area[static_cast<std::size_t>(t)] = 0.5 * (b - a).cross(c - a).norm();
     total_area += area[static_cast<std::size_t>(t)];
-    if (!(n.norm() > 0)) continue;
-    const Eigen::Vector3d u = n.normalized();
-    for (int axis = 0; axis < 3; ++axis)
-      for (int side = 0; side < 2; ++side) {
-        const double w = side ? hi(axis) : lo(axis);
-        const double facing = side ? u(axis) : -u(axis);
-        if (facing > 0.999 && std::abs(a(axis) - w) <= tol && std::abs(b(axis) - w) <= tol && std::abs(c(axis) - w) <= tol)
-          plane[static_cast<std::size_t>(t)] = 2 * axis + side;
-      }
+    plane[static_cast<std::size_t>(t)] = box_plane(m, t, lo, hi, tol);
   }
   // Regions: B-rep faces (all of whose triangles lie in one plane), or connected coplanar triangles.
   std::vector<int> region(static_cast<std::size_t>(T));
@@ -185,16 +209,7 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
     std::fill(out.cut_triangle.begin(), out.cut_triangle.end(), 0);
     return out;
   }
-  out.triangles = static_cast<std::size_t>(std::count(out.cut_triangle.begin(), out.cut_triangle.end(), 1));
-  for (Eigen::Index t = 0; t < T; ++t)
-    if (out.cut_triangle[static_cast<std::size_t>(t)]) out.cut_sides[static_cast<std::size_t>(plane[static_cast<std::size_t>(t)])] = true;
-  if (m.from_brep()) {
-    std::vector<char> is_cut(static_cast<std::size_t>(m.num_faces + 1), 0);
-    for (Eigen::Index t = 0; t < T; ++t)
-      if (out.cut_triangle[static_cast<std::size_t>(t)]) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
-    for (int f = 1; f <= m.num_faces; ++f)
-      if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
-  }
+  summarize_cut(m, plane, out);
   return out;
 }
 
@@ -244,21 +259,6 @@ std::vector<char> faces_on_border(const TriangleMesh& m) {
 
 namespace {
 
-// The bounding-box plane (0..5 = -x, +x, -y, +y, -z, +z) a triangle lies in, facing out, or -1.
-int box_plane(const TriangleMesh& m, Eigen::Index t, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double tol) {
-  const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
-  const Eigen::Vector3d n = (b - a).cross(c - a);
-  if (!(n.norm() > 0)) return -1;
-  const Eigen::Vector3d u = n.normalized();
-  for (int axis = 0; axis < 3; ++axis)
-    for (int side = 0; side < 2; ++side) {
-      const double w = side ? hi(axis) : lo(axis);
-      const double facing = side ? u(axis) : -u(axis);
-      if (facing > 0.999 && std::abs(a(axis) - w) <= tol && std::abs(b(axis) - w) <= tol && std::abs(c(axis) - w) <= tol) return 2 * axis + side;
-    }
-  return -1;
-}
-
 // Is x (outward normal n) on the surface sampled in `tree` (points P, normals N): a sample within
 // `reach` whose normal agrees, among its 4 nearest (beside an edge the nearest may be the other face's)?
 bool on_sampled_surface(const KdTree3& tree, const Samples& S, const Eigen::Vector3d& x, const Eigen::Vector3d& n, double reach) {
@@ -292,12 +292,7 @@ std::vector<char> cut_faces_on_target(const TriangleMesh& reference, const CutFa
   if (!any) return own;
   const TriangleMesh near = without_triangles(target, far);
   // (a target far larger than the reference around it would take too many samples: not this case)
-  double area = 0;
-  for (Eigen::Index t = 0; t < near.triangles.rows(); ++t)
-    area += 0.5 * (near.vertices.row(near.triangles(t, 1)) - near.vertices.row(near.triangles(t, 0)))
-                      .cross(near.vertices.row(near.triangles(t, 2)) - near.vertices.row(near.triangles(t, 0)))
-                      .norm();
-  if (!(area / (spacing * spacing) < 4e6)) return own;
+  if (!(mesh_area(near) / (spacing * spacing) < 4e6)) return own;
   const Samples ts = sample_surface(near, spacing, 11);
   if (ts.size() == 0) return own;
   const KdTree3 tree(ts.points);
@@ -342,21 +337,12 @@ CutFaces without_own_faces(const TriangleMesh& m, const CutFaces& cut, const std
   if (own.size() != static_cast<std::size_t>(T) || cut.cut_triangle.size() != own.size()) return out;
   const Eigen::Vector3d lo = m.vertices.colwise().minCoeff().transpose(), hi = m.vertices.colwise().maxCoeff().transpose();
   const double tol = 2e-3 * (hi - lo).norm();  // detect_cut_faces' default tolerance
-  out.cut_sides.fill(false);
-  out.triangles = 0;
-  out.faces.clear();
-  std::vector<char> is_cut(static_cast<std::size_t>(std::max(m.num_faces, 0) + 1), 0);
+  std::vector<int> plane(static_cast<std::size_t>(T), -1);
   for (Eigen::Index t = 0; t < T; ++t) {
-    char& c = out.cut_triangle[static_cast<std::size_t>(t)];
-    if (own[static_cast<std::size_t>(t)]) c = 0;
-    if (!c) continue;
-    ++out.triangles;
-    const int p = box_plane(m, t, lo, hi, tol);
-    if (p >= 0) out.cut_sides[static_cast<std::size_t>(p)] = true;
-    if (m.from_brep()) is_cut[static_cast<std::size_t>(std::clamp(m.face_ids(t), 0, m.num_faces))] = 1;
+    if (own[static_cast<std::size_t>(t)]) out.cut_triangle[static_cast<std::size_t>(t)] = 0;
+    if (out.cut_triangle[static_cast<std::size_t>(t)]) plane[static_cast<std::size_t>(t)] = box_plane(m, t, lo, hi, tol);
   }
-  for (int f = 1; f <= m.num_faces; ++f)
-    if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
+  summarize_cut(m, plane, out);
   return out;
 }
 
