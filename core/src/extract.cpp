@@ -469,7 +469,10 @@ struct SearchedReference {
   std::vector<int> own_faces;     ///< box faces kept as the part's own (cut_faces_on_target), 1-based (B-rep input)
   std::size_t own_triangles = 0;  ///< their triangles
 };
-SearchedReference searched_reference(const TriangleMesh& reference, const TriangleMesh& target, const Params& p) {
+// `own_found`: the box faces the reference's matches put on the target (own_faces_where_found), when
+// the reference does not sit on it unmoved.
+SearchedReference searched_reference(const TriangleMesh& reference, const TriangleMesh& target, const Params& p,
+                                     const std::vector<char>* own_found = nullptr) {
   SearchedReference r;
   if (p.detect_cut_faces) r.cut = detect_cut_faces(reference);
   // Box faces that are the part's own (the box reached past the part there) are left out of the
@@ -479,7 +482,7 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Triang
   std::vector<char> drop = r.cut.cut_triangle;
   if (r.cut.triangles > 0 && p.cut_faces_on_target) {
     const CutFaces all = r.cut;
-    r.cut = without_own_faces(reference, all, cut_faces_on_target(reference, all, target, 0.01 * reference.diagonal()));
+    r.cut = without_own_faces(reference, all, own_found ? *own_found : cut_faces_on_target(reference, all, target, 0.01 * reference.diagonal()));
     r.own_triangles = all.triangles - r.cut.triangles;
     std::set_difference(all.faces.begin(), all.faces.end(), r.cut.faces.begin(), r.cut.faces.end(), std::back_inserter(r.own_faces));
   }
@@ -490,7 +493,22 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Triang
 
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
-                     TargetFor target_for);
+                     TargetFor target_for, const std::vector<char>* own_found = nullptr);
+
+// The box faces that a match of a box-cut reference puts on the target's surface (cut_faces_on_target
+// with the reference placed by the match): the part's own faces, where the box reached past the part
+// the reference was cut out of, seen on the instances when the reference was not cut out of this very
+// part (rescaled, stretched, mirrored, or another part). Per reference triangle, 1 for such a face.
+std::vector<char> own_faces_where_found(const TriangleMesh& reference, const CutFaces& cut, const TriangleMesh& target,
+                                        const std::vector<Match>& matches) {
+  std::vector<char> own(static_cast<std::size_t>(reference.triangles.rows()), 0);
+  for (const Match& m : matches) {
+    const TriangleMesh placed = placed_mesh(reference, m.transform);
+    const std::vector<char> o = cut_faces_on_target(placed, cut, target, 0.01 * placed.diagonal());
+    for (std::size_t t = 0; t < o.size(); ++t) own[t] = static_cast<char>(own[t] | o[t]);
+  }
+  return own;
+}
 
 // The whole search for one reference: cut faces, the reference and (unless it is its own mirror
 // image) its mirror image matched against the target's description from
@@ -531,8 +549,8 @@ void band_skipped(Result& out, const ScaleBand& band, const std::string& why) {
 
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
-                     TargetFor target_for) {
-  const SearchedReference sr = searched_reference(reference_in, target, params_in);
+                     TargetFor target_for, const std::vector<char>* own_found) {
+  const SearchedReference sr = searched_reference(reference_in, target, params_in, own_found);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
   FeatureCore fc = feature_core(reference_in, sr.cut);
@@ -641,6 +659,19 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     out.params.scale_max = params.scale_max;
     return out;
   });
+  // A box-cut reference not cut out of this part: do its matches put some of its box faces on the
+  // target's surface? Then those are the part's own faces (a corner step's block sides, where the box
+  // reached past the block), and the search is run again with them kept like that: the faces ending
+  // on them are whole there, and a floor and wall alone no longer fit every floor-wall corner.
+  if ((own_found || sr.own_triangles == 0) && params_in.cut_faces_on_target && sr.cut.triangles > 0 && !res.matches.empty()) {
+    std::vector<char> own = own_faces_where_found(reference_in, sr.cut, target, res.matches);
+    if (std::any_of(own.begin(), own.end(), [](char c) { return c != 0; })) {
+      if (own_found)
+        for (std::size_t t = 0; t < own.size(); ++t) own[t] = static_cast<char>(own[t] | (*own_found)[t]);
+      if (std::getenv("FE_DEBUG")) std::fprintf(stderr, "debug: box faces on the target where matches put them: searched again with them as the part's own\n");
+      return search_within(reference_in, target, params_in, progress, target_for, &own);
+    }
+  }
   res.reference_closed = sr.cut.closed;
   res.reference_cut_faces = sr.cut.faces;
   res.reference_own_faces = sr.own_faces;
@@ -670,7 +701,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": "
       << (reference_in.from_brep() ? std::to_string(sr.own_faces.size()) + " face(s)" : std::to_string(sr.own_triangles) + " triangle(s)") << " on its bounding box lie on "
       << (target.source.empty() ? std::string("the target") : target.source)
-      << "'s surface where it was cut out of it: the part's own faces, where the box reached past the part; left out like cut faces, but the faces ending on them are whole there (cut_faces_on_target)";
+      << (own_found ? "'s surface where a first search's matches put the reference" : "'s surface where it was cut out of it")
+      << ": the part's own faces, where the box reached past the part; left out like cut faces, but the faces ending on them are whole there (cut_faces_on_target)";
     res.warnings.push_back(w.str());
   }
   return res;

@@ -372,6 +372,16 @@ TriangleMesh without_triangles(const TriangleMesh& m, const std::vector<char>& d
   return out;
 }
 
+TriangleMesh placed_mesh(const TriangleMesh& m, const Eigen::Matrix4d& H) {
+  TriangleMesh out = m;
+  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) out.vertices.row(i) = apply_transform(H, m.vertices.row(i).transpose()).transpose();
+  if (H.topLeftCorner<3, 3>().determinant() < 0) {
+    out.triangles.col(1) = m.triangles.col(2);
+    out.triangles.col(2) = m.triangles.col(1);
+  }
+  return out;
+}
+
 TriangleMesh mirrored_mesh(const TriangleMesh& m, const Eigen::Vector3d& center, Eigen::Matrix4d* M) {
   TriangleMesh out = m;
   out.vertices.col(0) = (2.0 * center.x()) - m.vertices.col(0).array();

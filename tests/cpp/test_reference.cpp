@@ -209,6 +209,23 @@ TEST(CutFaces, ACornerStepCutOutOfItsBlockKeepsTheBlocksOwnFacesOnTheBox) {
   EXPECT_EQ(rb.reference_cut_sides.size(), 6u);
 }
 
+TEST(CutFaces, AScaledCornerStepFindsTheBlocksOwnFacesWhereItsMatchesPutIt) {
+  // The same corner step, cut out of a block 0.8x as large: it does not sit on this block unmoved,
+  // so the block's sides and top on its box are taken for cut (the step's floor and wall alone fit
+  // floor-wall corners too). Its matches on the steps put those box faces on the block's surface:
+  // they are the part's own, and the search is run again with them kept.
+  fe::TriangleMesh ref = fe::read_shape(models() + "/corner_step_boxcut_reference.brep");
+  const Eigen::RowVector3d c = 0.5 * (ref.vertices.colwise().minCoeff() + ref.vertices.colwise().maxCoeff());
+  ref.vertices = ((ref.vertices.rowwise() - c) * 0.8).rowwise() + c;
+  const fe::TriangleMesh part = fe::read_shape(models() + "/corner_step_block.step", fe::tessellation_for_feature(ref.diagonal()));
+  const fe::Result r = fe::extract(ref, part, fe::Params{});
+  EXPECT_EQ(r.reference_own_faces.size(), 3u);
+  EXPECT_EQ(r.reference_cut_sides, (std::vector<std::string>{"+x", "+y", "-z"}));
+  const auto t = truth();
+  for (const auto& s : t["corner_step_block.step"]) EXPECT_GE(match_near(r, s[0], s[1], 8.0), 0) << "step at " << s;
+  EXPECT_TRUE(std::any_of(r.warnings.begin(), r.warnings.end(), [](const std::string& w) { return w.find("where a first search's matches put") != std::string::npos; }));
+}
+
 TEST(CutFaces, ClosedStlCutIsDetectedWithoutFaces) {
   const fe::Result r = run("rib_boxcut_reference.stl", "ribs_bosses.step");
   EXPECT_TRUE(r.reference_closed);

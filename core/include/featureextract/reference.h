@@ -47,6 +47,10 @@ CutFaces detect_cut_faces(const TriangleMesh& mesh, double tolerance = 2e-3);
 /// 1 for such a face; all 0 when the reference does not sit on the target unmoved.
 std::vector<char> cut_faces_on_target(const TriangleMesh& reference, const CutFaces& cut, const TriangleMesh& target, double spacing);
 
+/// `m` placed by H (apply_transform on every vertex; the winding reversed where H mirrors, so that
+/// normals stay outward): a reference where one of its matches put it on the target.
+TriangleMesh placed_mesh(const TriangleMesh& m, const Eigen::Matrix4d& H);
+
 /// `cut` without the triangles marked in `own` (they are kept as the reference's faces): the count,
 /// the B-rep faces and the cut sides again.
 CutFaces without_own_faces(const TriangleMesh& reference, const CutFaces& cut, const std::vector<char>& own);
