@@ -746,11 +746,16 @@ Result PreparedTarget::extract(const TriangleMesh& reference, const Params& para
 
 Result extract(const TriangleMesh& reference, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress) {
   // One description per pass. The first one (the reference's own scale band) is kept for the
-  // ridge-and-rut fallback to reuse: one description more in memory while a band or the fallback runs.
+  // ridge-and-rut fallback to reuse, and for a second search with the part's own faces found through
+  // the matches (search_within), which asks for it again with the same key: one description more in
+  // memory while a band, the fallback or the second search runs.
   Descriptions first;
   return search(reference, target, params_in, progress, [&](double L, const Params& params, const ProgressFn& checked) {
+    const std::string key = description_key(L, params);
+    for (const auto& m : first)
+      if (m.first == key) return m.second;
     auto t = describe_target(target, L, params, checked, first);
-    if (first.empty() && can_fall_back(params)) first.emplace_back(description_key(L, params), t);
+    if (first.empty()) first.emplace_back(key, t);
     return t;
   });
 }
