@@ -95,6 +95,7 @@ def base_cases(build):
         out.append(("occt_bottom_bosses", bottom, bottom_bosses(bottom)))
     out.append(("counterbores", *counterbore_plate(os.path.join(build, "models", "user_cases"))))
     out.append(("corner_step_block", *corner_step_block(os.path.join(build, "models", "user_cases"))))
+    out.append(("counterbore_bosses", *counterbore_bosses(os.path.join(build, "models", "user_cases"))))
     mf = os.path.join(SHARED, "mfcad")
     if os.path.isdir(mf):
         index = json.load(open(os.path.join(mf, "index.json")))
@@ -229,6 +230,56 @@ def counterbore_plate(folder):
     first = (COUNTERBORES[0][3], COUNTERBORES[0][4])
     s = Part.read(path)
     inst.sort(key=lambda faces: (bbox_of(s, faces).Center - App.Vector(*first, 0)).Length > 8)
+    return path, inst
+
+
+# (hole radius, counterbore radius, counterbore depth, x, y, top) of counterbore_bosses' holes
+# along z: two through bosses of the plate (their top at `top`), one through the plate alone.
+BOSS_COUNTERBORES = [
+    (2.8, 4.9, 4.2, 50, 40, 40.0),   # 0.7x, through a boss 30 mm tall and the plate: 3.6x as long for its radius
+    (5.2, 9.1, 7.8, 120, 40, 35.0),  # 1.3x, through a boss 25 mm tall and the plate: 1.5x as long
+    (4.0, 7.0, 4.0, 170, 40, 10.0),  # 1x, through the 10 mm plate alone: shorter
+]
+# (hole radius, counterbore radius, counterbore depth, x, z) of its holes along y through the wall
+# (20 mm thick); the first is the reference.
+WALL_COUNTERBORES = [
+    (4.0, 7.0, 6.0, 30, 30),
+    (4.0, 7.0, 6.0, 80, 30),
+    (5.2, 9.1, 7.8, 150, 30),        # 1.3x: shorter for its radius
+]
+
+
+def counterbore_bosses(folder):
+    """A 200 x 120 x 10 mm plate with a wall (20 mm thick, 40 tall) along its back edge and two
+    cylindrical bosses: counterbored through holes across the wall (WALL_COUNTERBORES, the first is
+    the reference) and down through the bosses and the plate (BOSS_COUNTERBORES). Added in the
+    nineteenth session as the development case of what the held-out FTC-06 counterbores showed in the
+    eighteenth: a box-cut reference whose box reaches past both faces of the wall keeps those faces as
+    the part's own, and a hole through a taller boss, as long again for its radius, then went unfound.
+    Its name was chosen so that its hash puts it in the development split. Written as STEP by FreeCAD
+    on first use; instances as in ftc06_counterbores."""
+    path = os.path.join(folder, "counterbore_bosses.step")
+    if not os.path.exists(path):
+        os.makedirs(folder, exist_ok=True)
+        s = Part.makeBox(200, 120, 10)
+        s = s.fuse(Part.makeBox(200, 20, 40, App.Vector(0, 100, 10)))
+        for r, rc, d, x, y, top in BOSS_COUNTERBORES:
+            if top > 10:
+                s = s.fuse(Part.makeCylinder(1.75 * rc, top - 10, App.Vector(x, y, 10)))
+        for r, rc, d, x, y, top in BOSS_COUNTERBORES:
+            s = s.cut(Part.makeCylinder(r, top + 2, App.Vector(x, y, -1)))
+            s = s.cut(Part.makeCylinder(rc, d + 1, App.Vector(x, y, top - d)))
+        for r, rc, d, x, z in WALL_COUNTERBORES:
+            s = s.cut(Part.makeCylinder(r, 22, App.Vector(x, 99, z), App.Vector(0, 1, 0)))
+            s = s.cut(Part.makeCylinder(rc, d + 1, App.Vector(x, 99, z), App.Vector(0, 1, 0)))
+        s = s.removeSplitter()
+        tmp = path + ".tmp.step"
+        s.exportStep(tmp)
+        os.replace(tmp, path)
+    inst = ftc06_counterbores(path)
+    first = App.Vector(WALL_COUNTERBORES[0][3], 110, WALL_COUNTERBORES[0][4])
+    s = Part.read(path)
+    inst.sort(key=lambda faces: (bbox_of(s, faces).Center - first).Length > 12)
     return path, inst
 
 
