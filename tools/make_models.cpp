@@ -816,6 +816,38 @@ int main(int argc, char** argv) {
     }
     BRepTools::Write(picked, (dir + "/counterbore_reference.brep").c_str());
   }
+  // A counterbored hole through a taller boss (issue 9; bench/user_cases.py's counterbore_bosses):
+  // the reference hole of counterbores.step (R4, counterbore R7 5 deep, through the 24 mm plate) and,
+  // at 0.7x, one drilled down through a 20 mm boss and the plate (3x as long for its radius as the
+  // reference's: it goes on past the reference's end and leaves the part at the plate's bottom) and
+  // one as large but blind (its hole ends on a floor inside the plate: a screw's, not a bolt's).
+  // Reference: the first hole's three faces.
+  {
+    TopoDS_Shape plate = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, -24), 150, 70, 24).Shape();
+    for (const double x : {80.0, 125.0}) plate = BRepAlgoAPI_Fuse(plate, BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(x, 35, -1), gp::DZ()), 10, 21).Shape()).Shape();
+    const double holes[][6] = {{30, 35, 4, 7, 5, -25}, {80, 35, 2.8, 4.9, 3.5, -25}, {125, 35, 2.8, 4.9, 3.5, -10}};  // x, y, hole R, counterbore R, depth, hole bottom
+    for (int i = 0; i < 3; ++i) {
+      const double* h = holes[i];
+      const double top = i == 0 ? 0 : 20;
+      plate = BRepAlgoAPI_Cut(plate, BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(h[0], h[1], h[5]), gp::DZ()), h[2], top + 1 - h[5]).Shape()).Shape();
+      plate = BRepAlgoAPI_Cut(plate, BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(h[0], h[1], top - h[4]), gp::DZ()), h[3], h[4] + 1).Shape()).Shape();
+    }
+    truth << "  \"counterbore_boss.step\": {\"reference\": " << json_point(30, 35, -12) << ", \"through\": " << json_point(80, 35, 0)
+          << ", \"blind\": " << json_point(125, 35, 5) << "},\n";
+    write_step(plate, dir + "/counterbore_boss.step");
+    TopoDS_Compound picked;
+    BRep_Builder bb;
+    bb.MakeCompound(picked);
+    TopTools_IndexedMapOfShape faces;
+    TopExp::MapShapes(plate, TopAbs_FACE, faces);
+    for (int i = 1; i <= faces.Extent(); ++i) {
+      const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
+      if (a0 < 22 || a1 > 38 || b0 < 27 || b1 > 43) continue;  // not the first hole's
+      if (c1 - c0 < 1e-6 && (std::abs(c1) < 1e-3 || std::abs(c1 + 24) < 1e-3)) continue;  // the plate's top or bottom
+      bb.Add(picked, faces(i));
+    }
+    BRepTools::Write(picked, (dir + "/counterbore_boss_reference.brep").c_str());
+  }
   // Triangular blind steps at the corners of a block's top (issue 9; bench/user_cases.py's
   // corner_step_block): a triangular floor and one wall, open toward the block's two sides there,
   // among other floors meeting walls (a rectangular pocket, a through slot). Reference: the first

@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <unordered_map>
 
 namespace fe {
@@ -102,11 +103,20 @@ double FaceCoverCheck::partial_share(const Eigen::Matrix4d& H, double tol, doubl
     lands[k] = g;
   }
   int checked_rows = 0, partial = 0;
+  std::map<std::pair<int, int>, bool> through;  // (reference face, target face) -> goes_on_through
   for (std::size_t k = 0; k < rows.size(); ++k) {
     const int f = R.face_ids.size() ? R.face_ids(rows[k]) : 0;
     if (f <= 0 || static_cast<std::size_t>(f) >= checked.size() || !checked[static_cast<std::size_t>(f)] || lands[k] == 0) continue;
     ++checked_rows;
-    if (mapped_area[lands[k]] < fill * target_area[static_cast<std::size_t>(lands[k])]) ++partial;
+    if (mapped_area[lands[k]] < fill * target_area[static_cast<std::size_t>(lands[k])]) {
+      if (goes_on_through) {
+        const auto key = std::make_pair(f, lands[k]);
+        auto it = through.find(key);
+        if (it == through.end()) it = through.emplace(key, goes_on_through(H, f, lands[k])).first;
+        if (it->second) continue;
+      }
+      ++partial;
+    }
   }
   return checked_rows ? static_cast<double>(partial) / checked_rows : 0.0;
 }

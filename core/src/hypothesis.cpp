@@ -190,7 +190,105 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
       *d = target_distance(y, &j);
       return j;
     };
+    // Faces that reach the open border (picked faces' edge, a left-out own face) may go on past it
+    // on an instance where the face leaves the part there: a hole through a taller boss.
+    if (core.open_border && core.open_border_face && core.open_border_face->size() == static_cast<std::size_t>(core.open_border->rows())) {
+      std::vector<int> idx;
+      std::vector<float> d2;
+      std::map<int, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> ends;
+      for (Eigen::Index k = 0; k < core.open_border->rows(); ++k) {
+        const int f = (*core.open_border_face)[static_cast<std::size_t>(k)];
+        if (f <= 0 || f >= nf || !whole_faces_.checked[static_cast<std::size_t>(f)]) continue;
+        const Eigen::Vector3d b = core.open_border->row(k).transpose();
+        R.dense_tree->radius(b, 3.0 * R.dense_h, idx, d2);
+        Eigen::Vector3d m = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+        int c = 0;
+        for (const int i : idx)
+          if (R.dense.face_ids(i) == f) {
+            m += R.dense.points.row(i).transpose();
+            n += R.dense_normals.row(i).transpose();
+            ++c;
+          }
+        if (c < 3) continue;
+        m /= c;
+        Eigen::Vector3d t = b - m;
+        if (n.norm() > 0) t -= t.dot(n.normalized()) * n.normalized();
+        if (!(t.norm() > 0.2 * R.dense_h)) continue;
+        ends[f].emplace_back(b, t.normalized());
+      }
+      for (auto& [f, pts] : ends) {
+        BorderEnd& e = border_ends_[f];
+        e.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
+        e.outward.resize(e.points.rows(), 3);
+        for (std::size_t k = 0; k < pts.size(); ++k) {
+          e.points.row(static_cast<Eigen::Index>(k)) = pts[k].first.transpose();
+          e.outward.row(static_cast<Eigen::Index>(k)) = pts[k].second.transpose();
+        }
+        std::vector<Eigen::Index> rows;
+        for (const Eigen::Index i : core_dense_)
+          if (R.dense.face_ids(i) == f) rows.push_back(i);
+        for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(rows.size()), 400)) e.rows.push_back(rows[static_cast<std::size_t>(k)]);
+      }
+      if (!border_ends_.empty()) {
+        target_face_all_ = std::move(on_face);
+        whole_faces_.goes_on_through = [this](const Eigen::Matrix4d& H, int f, int g) { return goes_on_through(H, f, g); };
+      }
+    }
   }
+}
+
+bool HypothesisScorer::goes_on_through(const Eigen::Matrix4d& H, int f, int g) const {
+  const auto it = border_ends_.find(f);
+  if (it == border_ends_.end() || it->second.rows.empty() || g <= 0 || static_cast<std::size_t>(g) >= target_face_all_.size()) return false;
+  const BorderEnd& e = it->second;
+  // f's end at the border, and f itself, where H puts them
+  Points B(e.points.rows(), 3), U(e.points.rows(), 3), Y(static_cast<Eigen::Index>(e.rows.size()), 3);
+  for (Eigen::Index k = 0; k < e.points.rows(); ++k) {
+    const Eigen::Vector3d x = e.points.row(k).transpose();
+    B.row(k) = apply_transform(H, x).transpose();
+    U.row(k) = (transform_jacobian(H, x) * e.outward.row(k).transpose()).normalized().transpose();
+  }
+  for (std::size_t k = 0; k < e.rows.size(); ++k) Y.row(static_cast<Eigen::Index>(k)) = apply_transform(H, R_.dense.points.row(e.rows[k]).transpose()).transpose();
+  if (!B.allFinite() || !U.allFinite() || !Y.allFinite()) return false;
+  const KdTree3 ytree(Y), btree(B);
+  const double s = std::cbrt(std::abs(transform_jacobian(H, R_.dense.points.row(e.rows[0]).transpose()).determinant()));
+  const double cover = 2.5 * std::max(T_.dense_h, s * R_.dense_h);
+  // every sample of g that f does not cover lies past f's end
+  const std::vector<int>& gs = target_face_all_[static_cast<std::size_t>(g)];
+  std::vector<std::pair<double, int>> past;  // (how far past the end, target row)
+  std::size_t uncovered = 0;
+  for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(gs.size()), 2000)) {
+    const int j = gs[static_cast<std::size_t>(k)];
+    const Eigen::Vector3d y = T_.dense.points.row(j).transpose();
+    if (ytree.nearest_within(y, cover) >= 0) continue;
+    ++uncovered;
+    const int b = btree.nearest(y);
+    const double d = (y - B.row(b).transpose()).dot(U.row(b).transpose());
+    if (d > 0) past.emplace_back(d, j);
+  }
+  if (uncovered == 0 || static_cast<double>(past.size()) < 0.9 * static_cast<double>(uncovered)) return false;
+  // where g ends: the part's surface beside its farthest samples faces the way g went
+  double far = 0;
+  for (const auto& pj : past) far = std::max(far, pj.first);
+  std::vector<int> idx;
+  std::vector<float> d2;
+  int ahead = 0, back = 0;
+  for (const auto& pj : past) {
+    if (pj.first < far - 2.0 * T_.dense_h) continue;
+    const Eigen::Vector3d y = T_.dense.points.row(pj.second).transpose();
+    const Eigen::Vector3d u = U.row(btree.nearest(y)).transpose();
+    T_.dense_tree->radius(y, 3.0 * T_.dense_h, idx, d2);
+    for (const int q : idx) {
+      if (T_.dense.face_ids(q) == g) continue;
+      const double c = T_.dense_normals.row(q).dot(u);
+      if (c > 0.7) ++ahead;
+      else if (c < -0.7) ++back;
+    }
+  }
+  if (std::getenv("FE_DEBUG"))
+    std::fprintf(stderr, "debug: face %d on target face %d: %zu of %zu uncovered samples past its end, end faces %d ahead, %d back\n", f, g,
+                 past.size(), uncovered, ahead, back);
+  return ahead >= 3 && 4 * back < ahead;
 }
 
 HypothesisScorer::~HypothesisScorer() = default;

@@ -394,6 +394,34 @@ TEST(EndToEnd, ACounterboredHoleIsFoundThroughAThinnerWall) {
   }
 }
 
+// The other way round: a hole that goes on longer than the reference's (issue 9, nineteenth session;
+// the held-out FTC-06 counterbores drilled through its bosses, 2.3x as long for their radius as the
+// reference's through its wall). The reference hole is picked in the 24 mm plate; at 0.7x a hole is
+// drilled down through a 20 mm boss and the plate, 3x as long as the mapped reference's: the target's
+// hole cylinder is only a third covered, which the whole-faces check used to refuse. It goes on past
+// the end of the reference's (its open border) and leaves the part at the plate's bottom, which faces
+// the way the hole went: the same through hole. A blind hole as large, ending on a floor that faces
+// back up the hole, is not.
+TEST(EndToEnd, AHoleThroughATallerBossGoesOnPastTheReferencesEndAndLeavesThePart) {
+  const Case c = load("counterbore_boss_reference.brep", "counterbore_boss.step");
+  const nlohmann::json t = truth()["counterbore_boss.step"];
+  const fe::Result r = fe::extract(c.ref, c.tgt, fe::Params{});
+  auto near = [&](const char* which) {
+    int n = 0;
+    for (const fe::Match& m : r.matches)
+      if (std::hypot(m.center.x() - t[which][0].get<double>(), m.center.y() - t[which][1].get<double>()) < 3) ++n;
+    return n;
+  };
+  EXPECT_EQ(near("reference"), 1);
+  EXPECT_EQ(near("through"), 1);
+  EXPECT_EQ(near("blind"), 0);
+  EXPECT_EQ(r.matches.size(), 2u);
+  for (const fe::Match& m : r.matches) {
+    expect_sane(m);
+    if (std::hypot(m.center.x() - t["through"][0].get<double>(), m.center.y() - t["through"][1].get<double>()) < 3) EXPECT_NEAR(m.scale, 0.7, 0.07);
+  }
+}
+
 // A face may overhang only toward the reference's border (the truncation rule): MFCAD part
 // 6-6-6-11-13-23 has three rectangular through steps (Face3+Face17, Face4+Face16, Face19+Face20)
 // and a triangular blind step (Face13+Face14). The first step picked as faces, both faces ending at

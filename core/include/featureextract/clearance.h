@@ -67,6 +67,12 @@ struct FaceCoverCheck {
   /// Nearest target dense sample to a point (index or -1), and its distance.
   std::function<int(const Eigen::Vector3d&, double*)> target_nearest;
 
+  /// Optional: does target face g, which the checked reference face f lands on but covers less than
+  /// `fill`, only go on past f's end at the reference's open border and leave the part where it ends
+  /// (a through hole drilled through a taller boss than the reference's wall)? Such a face is not
+  /// counted as partly covered.
+  std::function<bool(const Eigen::Matrix4d& H, int f, int g)> goes_on_through;
+
   /// Share of the checked faces' samples whose target face is covered less than `fill` by the
   /// mapped reference (samples landing farther than `tol` from the target are not counted).
   double partial_share(const Eigen::Matrix4d& H, double tol, double fill) const;
