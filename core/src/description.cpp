@@ -345,6 +345,19 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
         e << ": it is planar, or only ridges and ruts; pick a feature with corners, caps or saddles";
       throw NoKeyPoints(e.str());
     }
+    // The paper's key points all in one spot (a counterbore's concave rim where the tessellation
+    // bends it: 6 points within 0.13 L) cannot place the feature: pairs drawn from one spot leave it
+    // free to turn about it, and instances elsewhere fail the key agreement. Like too few, when the
+    // search can fall back on ridge and rut key points.
+    if (!(p.ridge_rut_spacing > 0) && p.ridge_rut_fallback > 0 && d->keys.rows() > 0) {
+      const double spread = (d->keys.colwise().maxCoeff() - d->keys.colwise().minCoeff()).norm();
+      if (spread < kMinKeySpread * L) {
+        std::ostringstream e;
+        e.precision(2);
+        e << name << ": the reference's " << d->keys.rows() << " key points lie within " << spread / L << " L of each other: too close together to place it";
+        throw NoKeyPoints(e.str());
+      }
+    }
   }
   return ShapeDescription(d);
 }

@@ -16,6 +16,11 @@
 
 namespace fe {
 
+/// A reference whose paper key points all lie within this share of L of each other cannot be placed
+/// by them (describe() throws NoKeyPoints, and the search falls back on ridge and rut key points).
+/// The development references that are searched with the paper's key points spread 0.26-0.89 L.
+constexpr double kMinKeySpread = 0.2;
+
 struct ShapeDescription::Impl {
   Role role = Role::Target;
   double L = 0;          // feature size (reference diagonal)

@@ -438,7 +438,7 @@ Result with_fallback(const Params& params, Run run) {
     why = "nothing found with the paper's key points";
   } catch (const NoKeyPoints& e) {
     if (!can_fall_back) throw;
-    why = "the reference has too few of the paper's key points (caps, cups, saddles)";
+    why = "the reference has too few of the paper's key points (caps, cups, saddles), or they lie in one spot";
   }
   double first = 0;
   for (const auto& t : res.timings) first += t.second;

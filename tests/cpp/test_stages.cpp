@@ -87,6 +87,42 @@ TEST(CurvatureStage, ASharedTreeGivesTheSameValuesAsOneOfItsOwn) {
   EXPECT_GT(c.array().isFinite().count(), 0);  // the rib's edges are creases: something was compared
 }
 
+// A reference whose paper key points all lie in one spot (nineteenth session: a counterbore scaled
+// 0.7x kept 6 key points on one stretch of its concave rim, 0.14 L across, and was searched with them
+// alone: 1 of 6 holes found, 6 of 6 with ridge and rut key points). An 80 mm square patch, flat but
+// for a bump (a Gaussian, sigma 2.5 mm) near one corner: its key points lie within 0.2 L.
+TEST(DescriptionStage, KeyPointsInOneSpotCallForTheRidgeAndRutFallback) {
+  fe::TriangleMesh m;
+  const int n = 161;
+  m.vertices.resize(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double x = 0.5 * i, y = 0.5 * j, r2 = (x - 10) * (x - 10) + (y - 10) * (y - 10);
+      m.vertices.row(i * n + j) << x, y, 3.0 * std::exp(-r2 / (2 * 6.25));
+    }
+  m.triangles.resize(2 * (n - 1) * (n - 1), 3);
+  int t = 0;
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      m.triangles.row(t++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
+      m.triangles.row(t++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
+    }
+  m.face_ids = Eigen::VectorXi::Zero(t);
+  const double L = m.diagonal();
+  fe::Params alone;  // no fallback: the key points are what there is
+  alone.ridge_rut_fallback = 0;
+  const fe::ShapeDescription d = fe::describe(m, fe::ShapeDescription::Role::Reference, L, alone);
+  const fe::Points& k = d.key_points();
+  ASSERT_GE(k.rows(), 5);
+  EXPECT_LT((k.colwise().maxCoeff() - k.colwise().minCoeff()).norm(), fe::kMinKeySpread * L);
+  try {
+    fe::describe(m, fe::ShapeDescription::Role::Reference, L, fe::Params{});
+    ADD_FAILURE() << "key points in one spot were taken to place the reference";
+  } catch (const fe::NoKeyPoints& e) {
+    EXPECT_NE(std::string(e.what()).find("too close together"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SymmetryStage, ACylinderIsAxisymmetricABoxIsNot) {
   fe::Points x, n;
   const Eigen::Vector3d point(1, 2, 3), axis(0.2, -0.3, 1.0);
