@@ -190,15 +190,34 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
       *d = target_distance(y, &j);
       return j;
     };
-    // Faces that reach the open border (picked faces' edge, a left-out own face) may go on past it
-    // on an instance where the face leaves the part there: a hole through a taller boss.
+    // Cylinders (a hole's, a boss's wall) that reach the open border (picked faces' edge, a left-out
+    // own face) where they end along their axis may go on past it on an instance where they leave the
+    // part there: a hole through a taller boss. Not planes: a plane goes on every way along itself,
+    // and a corner step's floor and wall laid sideways in a through slot would go on "through" it too
+    // (corner_step_block, stretched: 3 false matches with planes allowed).
     if (core.open_border && core.open_border_face && core.open_border_face->size() == static_cast<std::size_t>(core.open_border->rows())) {
       std::vector<int> idx;
       std::vector<float> d2;
+      // the axis of each checked face whose normals all lie across one direction (a cylinder)
+      std::vector<Eigen::Matrix3d> nn(static_cast<std::size_t>(nf), Eigen::Matrix3d::Zero());
+      std::vector<int> count(static_cast<std::size_t>(nf), 0);
+      for (Eigen::Index i = 0; i < R.dense.face_ids.size(); ++i) {
+        const int f = R.dense.face_ids(i);
+        if (f <= 0 || f >= nf || !whole_faces_.checked[static_cast<std::size_t>(f)]) continue;
+        const Eigen::Vector3d n = R.dense_normals.row(i).transpose();
+        nn[static_cast<std::size_t>(f)] += n * n.transpose();
+        ++count[static_cast<std::size_t>(f)];
+      }
+      std::map<int, Eigen::Vector3d> axis;
+      for (int f = 1; f < nf; ++f) {
+        if (count[static_cast<std::size_t>(f)] < 20) continue;
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(nn[static_cast<std::size_t>(f)] / count[static_cast<std::size_t>(f)]);
+        if (es.eigenvalues()(0) < 0.01 && es.eigenvalues()(1) > 0.05) axis[f] = es.eigenvectors().col(0);
+      }
       std::map<int, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> ends;
       for (Eigen::Index k = 0; k < core.open_border->rows(); ++k) {
         const int f = (*core.open_border_face)[static_cast<std::size_t>(k)];
-        if (f <= 0 || f >= nf || !whole_faces_.checked[static_cast<std::size_t>(f)]) continue;
+        if (f <= 0 || f >= nf || !whole_faces_.checked[static_cast<std::size_t>(f)] || !axis.count(f)) continue;
         const Eigen::Vector3d b = core.open_border->row(k).transpose();
         R.dense_tree->radius(b, 3.0 * R.dense_h, idx, d2);
         Eigen::Vector3d m = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
@@ -214,7 +233,10 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
         Eigen::Vector3d t = b - m;
         if (n.norm() > 0) t -= t.dot(n.normalized()) * n.normalized();
         if (!(t.norm() > 0.2 * R.dense_h)) continue;
-        ends[f].emplace_back(b, t.normalized());
+        const Eigen::Vector3d& a = axis[f];
+        const double along = t.normalized().dot(a);
+        if (std::abs(along) < 0.9) continue;  // a border along the cylinder, not across its end
+        ends[f].emplace_back(b, along > 0 ? a : Eigen::Vector3d(-a));
       }
       for (auto& [f, pts] : ends) {
         BorderEnd& e = border_ends_[f];
@@ -227,7 +249,7 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
         std::vector<Eigen::Index> rows;
         for (const Eigen::Index i : core_dense_)
           if (R.dense.face_ids(i) == f) rows.push_back(i);
-        for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(rows.size()), 400)) e.rows.push_back(rows[static_cast<std::size_t>(k)]);
+        for (const Eigen::Index k : stride_rows(static_cast<Eigen::Index>(rows.size()), 2000)) e.rows.push_back(rows[static_cast<std::size_t>(k)]);
       }
       if (!border_ends_.empty()) {
         target_face_all_ = std::move(on_face);

@@ -160,15 +160,15 @@ class HypothesisScorer {
   std::unique_ptr<Clearance> clearance_;
   FaceCoverCheck whole_faces_;
   std::vector<std::vector<int>> face_rows_;
-  /// Per reference face that reaches the open border: its border points and, at each, the direction
-  /// in which the face goes on past it (outward, in the face's tangent plane); and its dense rows.
+  /// Per reference cylinder that reaches the open border across its end: its border points there and,
+  /// at each, the direction in which it goes on past it (along its axis, outward); and its dense rows.
   struct BorderEnd {
     Points points, outward;
     std::vector<Eigen::Index> rows;
   };
   std::map<int, BorderEnd> border_ends_;
   std::vector<std::vector<int>> target_face_all_;  // every target dense row, per target face
-  /// FaceCoverCheck::goes_on_through: target face g goes on past the mapped end of reference face f
+  /// FaceCoverCheck::goes_on_through: target face g goes on past the mapped end of reference cylinder f
   /// at the open border (every sample of g that f does not cover lies past it), and where g ends,
   /// the part's surface faces the way g went (it leaves the part: a through hole's exit), not back
   /// (a pocket's far wall, a blind hole's floor).
