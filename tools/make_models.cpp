@@ -86,6 +86,23 @@ Box bbox(const TopoDS_Shape& s) {
   return r;
 }
 
+// The faces of the counterbored hole at (30, 35) of a 24 mm plate (top at z = 0), as a user picks
+// them: those inside the hole's box, but not the plate's top or bottom. Written as a BREP compound.
+void write_first_hole(const TopoDS_Shape& plate, const std::string& path) {
+  TopoDS_Compound picked;
+  BRep_Builder bb;
+  bb.MakeCompound(picked);
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(plate, TopAbs_FACE, faces);
+  for (int i = 1; i <= faces.Extent(); ++i) {
+    const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
+    if (a0 < 22 || a1 > 38 || b0 < 27 || b1 > 43) continue;  // not the first hole's
+    if (c1 - c0 < 1e-6 && (std::abs(c1) < 1e-3 || std::abs(c1 + 24) < 1e-3)) continue;  // the plate's top or bottom
+    bb.Add(picked, faces(i));
+  }
+  BRepTools::Write(picked, path.c_str());
+}
+
 [[noreturn]] void die(const std::string& m) {
   std::cerr << "fe_make_models: " << m << "\n";
   std::exit(1);
@@ -803,18 +820,7 @@ int main(int argc, char** argv) {
     }
     truth << "],\n";
     write_step(plate, dir + "/counterbores.step");
-    TopoDS_Compound picked;
-    BRep_Builder bb;
-    bb.MakeCompound(picked);
-    TopTools_IndexedMapOfShape faces;
-    TopExp::MapShapes(plate, TopAbs_FACE, faces);
-    for (int i = 1; i <= faces.Extent(); ++i) {
-      const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
-      if (a0 < 22 || a1 > 38 || b0 < 27 || b1 > 43) continue;  // not the first hole's
-      if (c1 - c0 < 1e-6 && (std::abs(c1) < 1e-3 || std::abs(c1 + 24) < 1e-3)) continue;  // the plate's top or bottom
-      bb.Add(picked, faces(i));
-    }
-    BRepTools::Write(picked, (dir + "/counterbore_reference.brep").c_str());
+    write_first_hole(plate, dir + "/counterbore_reference.brep");
   }
   // A counterbored hole through a taller boss (issue 9; bench/user_cases.py's counterbore_bosses):
   // the reference hole of counterbores.step (R4, counterbore R7 5 deep, through the 24 mm plate) and,
@@ -835,18 +841,7 @@ int main(int argc, char** argv) {
     truth << "  \"counterbore_boss.step\": {\"reference\": " << json_point(30, 35, -12) << ", \"through\": " << json_point(80, 35, 0)
           << ", \"blind\": " << json_point(125, 35, 5) << "},\n";
     write_step(plate, dir + "/counterbore_boss.step");
-    TopoDS_Compound picked;
-    BRep_Builder bb;
-    bb.MakeCompound(picked);
-    TopTools_IndexedMapOfShape faces;
-    TopExp::MapShapes(plate, TopAbs_FACE, faces);
-    for (int i = 1; i <= faces.Extent(); ++i) {
-      const auto [a0, b0, c0, a1, b1, c1] = bbox(faces(i));
-      if (a0 < 22 || a1 > 38 || b0 < 27 || b1 > 43) continue;  // not the first hole's
-      if (c1 - c0 < 1e-6 && (std::abs(c1) < 1e-3 || std::abs(c1 + 24) < 1e-3)) continue;  // the plate's top or bottom
-      bb.Add(picked, faces(i));
-    }
-    BRepTools::Write(picked, (dir + "/counterbore_boss_reference.brep").c_str());
+    write_first_hole(plate, dir + "/counterbore_boss_reference.brep");
   }
   // Triangular blind steps at the corners of a block's top (issue 9; bench/user_cases.py's
   // corner_step_block): a triangular floor and one wall, open toward the block's two sides there,

@@ -4,6 +4,7 @@
 #include "featureextract/part_mesh.h"
 
 #include "featureextract/mesh.h"
+#include "test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -344,20 +345,7 @@ Eigen::Vector3d bent(double u, double y) { return u <= 2 ? Eigen::Vector3d(u, y,
 
 // The part's surface: the bent strip u in [-1, 5], y in [-1, 5] triangulated at 0.5.
 fe::TriangleMesh bent_surface() {
-  fe::TriangleMesh s;
-  const int n = 13;
-  s.vertices.resize(n * n, 3);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) s.vertices.row(i * n + j) = bent(-1 + 0.5 * i, -1 + 0.5 * j).transpose();
-  s.triangles.resize(2 * (n - 1) * (n - 1), 3);
-  int t = 0;
-  for (int i = 0; i + 1 < n; ++i)
-    for (int j = 0; j + 1 < n; ++j) {
-      s.triangles.row(t++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
-      s.triangles.row(t++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
-    }
-  s.face_ids = Eigen::VectorXi::Zero(t);
-  return s;
+  return fe_test::grid_mesh(13, [](int i, int j) { return bent(-1 + 0.5 * i, -1 + 0.5 * j); });
 }
 
 // A patch of 4 x 4 unit quads on the bent strip, u and y in [0, 4]; node (i, j) is row 5 i + j.

@@ -92,22 +92,10 @@ TEST(CurvatureStage, ASharedTreeGivesTheSameValuesAsOneOfItsOwn) {
 // alone: 1 of 6 holes found, 6 of 6 with ridge and rut key points). An 80 mm square patch, flat but
 // for a bump (a Gaussian, sigma 2.5 mm) near one corner: its key points lie within 0.2 L.
 TEST(DescriptionStage, KeyPointsInOneSpotCallForTheRidgeAndRutFallback) {
-  fe::TriangleMesh m;
-  const int n = 161;
-  m.vertices.resize(n * n, 3);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const double x = 0.5 * i, y = 0.5 * j, r2 = (x - 10) * (x - 10) + (y - 10) * (y - 10);
-      m.vertices.row(i * n + j) << x, y, 3.0 * std::exp(-r2 / (2 * 6.25));
-    }
-  m.triangles.resize(2 * (n - 1) * (n - 1), 3);
-  int t = 0;
-  for (int i = 0; i + 1 < n; ++i)
-    for (int j = 0; j + 1 < n; ++j) {
-      m.triangles.row(t++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
-      m.triangles.row(t++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
-    }
-  m.face_ids = Eigen::VectorXi::Zero(t);
+  const fe::TriangleMesh m = fe_test::grid_mesh(161, [](int i, int j) {
+    const double x = 0.5 * i, y = 0.5 * j, r2 = (x - 10) * (x - 10) + (y - 10) * (y - 10);
+    return Eigen::Vector3d(x, y, 3.0 * std::exp(-r2 / (2 * 6.25)));
+  });
   const double L = m.diagonal();
   fe::Params alone;  // no fallback: the key points are what there is
   alone.ridge_rut_fallback = 0;

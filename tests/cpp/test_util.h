@@ -29,6 +29,24 @@ inline nlohmann::json truth() {
   return nlohmann::json::parse(in);
 }
 
+// An n x n grid of vertices point(i, j) (row i n + j), two triangles per cell, no B-rep faces.
+template <class Point>
+inline fe::TriangleMesh grid_mesh(int n, Point point) {
+  fe::TriangleMesh s;
+  s.vertices.resize(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) s.vertices.row(i * n + j) = point(i, j).transpose();
+  s.triangles.resize(2 * (n - 1) * (n - 1), 3);
+  int t = 0;
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      s.triangles.row(t++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
+      s.triangles.row(t++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
+    }
+  s.face_ids = Eigen::VectorXi::Zero(t);
+  return s;
+}
+
 // Index of the match whose center is within `tol` (in x and y) of (x, y), or -1.
 inline int match_near(const fe::Result& r, double x, double y, double tol) {
   for (std::size_t i = 0; i < r.matches.size(); ++i)
