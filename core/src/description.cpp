@@ -346,7 +346,7 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
       throw NoKeyPoints(e.str());
     }
     // The paper's key points all in one spot (a counterbore's concave rim where the tessellation
-    // bends it: 6 points within 0.13 L) cannot place the feature: pairs drawn from one spot leave it
+    // bends it: 6 points within 0.14 L) cannot place the feature: pairs drawn from one spot leave it
     // free to turn about it, and instances elsewhere fail the key agreement. Like too few, when the
     // search can fall back on ridge and rut key points.
     if (!(p.ridge_rut_spacing > 0) && p.ridge_rut_fallback > 0 && d->keys.rows() > 0) {
