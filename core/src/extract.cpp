@@ -471,8 +471,10 @@ struct SearchedReference {
 };
 // `own_found`: the box faces the reference's matches put on the target (own_faces_where_found), when
 // the reference does not sit on it unmoved.
+// `through`: a clipped region's planes that it passes through between (CutFaces::own_triangle) are
+// left out too (the second search of such a region, search_within).
 SearchedReference searched_reference(const TriangleMesh& reference, const TriangleMesh& target, const Params& p,
-                                     const std::vector<char>* own_found = nullptr) {
+                                     const std::vector<char>* own_found, bool through) {
   SearchedReference r;
   if (p.detect_cut_faces) r.cut = detect_cut_faces(reference);
   // Box faces that are the part's own (the box reached past the part there) are left out of the
@@ -486,6 +488,12 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Triang
     r.own_triangles = all.triangles - r.cut.triangles;
     std::set_difference(all.faces.begin(), all.faces.end(), r.cut.faces.begin(), r.cut.faces.end(), std::back_inserter(r.own_faces));
   }
+  // A clipped mesh region that passes through between two of its box's planes (a hole across a wall)
+  // leaves those planes out the same way in its second search: they are the wall's own faces.
+  if (through && !r.cut.closed && r.cut.own_triangles > 0 && r.cut.own_triangle.size() == drop.size()) {
+    for (std::size_t t = 0; t < drop.size(); ++t) drop[t] = static_cast<char>(drop[t] | r.cut.own_triangle[t]);
+    r.own_triangles = r.cut.own_triangles;
+  }
   const bool any = std::any_of(drop.begin(), drop.end(), [](char c) { return c != 0; });
   r.mesh = any ? without_triangles(reference, drop) : reference;
   return r;
@@ -493,7 +501,7 @@ SearchedReference searched_reference(const TriangleMesh& reference, const Triang
 
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
-                     TargetFor target_for, const std::vector<char>* own_found = nullptr);
+                     TargetFor target_for, const std::vector<char>* own_found = nullptr, bool through = false);
 
 // The box faces that a match of a box-cut reference puts on the target's surface (cut_faces_on_target
 // with the reference placed by the match): the part's own faces, where the box reached past the part
@@ -549,11 +557,22 @@ void band_skipped(Result& out, const ScaleBand& band, const std::string& why) {
 
 template <class TargetFor>
 Result search_within(const TriangleMesh& reference_in, const TriangleMesh& target, const Params& params_in, const ProgressFn& progress,
-                     TargetFor target_for, const std::vector<char>* own_found) {
-  const SearchedReference sr = searched_reference(reference_in, target, params_in, own_found);
+                     TargetFor target_for, const std::vector<char>* own_found, bool through) {
+  const SearchedReference sr = searched_reference(reference_in, target, params_in, own_found, through);
   const TriangleMesh& reference = sr.mesh;
   check_sizes(reference, target, params_in);
   FeatureCore fc = feature_core(reference_in, sr.cut);
+  // The second search of a clipped region through a wall: it is the same reference, of the same size
+  // (the target's description is the first search's), judged where it met the wall's faces.
+  const double size_ratio = through && reference.diagonal() > 0 ? reference_in.diagonal() / reference.diagonal() : 1.0;
+  if (through && sr.own_triangles > 0 && !sr.cut.closed) {
+    Points outward;
+    Points rims = through_rims(reference_in, sr.cut, &outward);
+    if (rims.rows() > 0) {
+      fc.through_ends = std::make_shared<const Points>(std::move(rims));
+      fc.through_outward = std::make_shared<const Points>(std::move(outward));
+    }
+  }
   if (params_in.max_overhang > 0) {
     std::vector<int> bface;
     Points border = open_border_points(reference, 0.005 * reference.diagonal(), &bface);
@@ -564,7 +583,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   }
   // One pass: the reference (scaled by a scale band's f, merge.h) and its mirror image.
   auto pass = [&](const TriangleMesh& ref, const FeatureCore& core, const Params& asked) {
-    const double L = ref.diagonal();
+    const double L = ref.diagonal() * size_ratio;
     // A part too large for the dense spacing (max_dense_points) is sampled coarser, and the reference is
     // then described with the same coarser spacings and radii: sampling only the target coarser left
     // its normals a sample or two each and its descriptors unlike the reference's (development case
@@ -603,6 +622,13 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
           Points b = *core.open_border;
           b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
           fm.open_border = std::make_shared<const Points>(std::move(b));
+        }
+        if (core.through_ends) {
+          Points b = *core.through_ends, u = *core.through_outward;
+          b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
+          u.col(0) = -u.col(0);
+          fm.through_ends = std::make_shared<const Points>(std::move(b));
+          fm.through_outward = std::make_shared<const Points>(std::move(u));
         }
         merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
         out.mirror_searched = true;
@@ -643,6 +669,8 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       }
       if (fc.open_border)
         core.open_border = std::make_shared<const Points>(((fc.open_border->rowwise() - c.transpose()) * band.f).rowwise() + c.transpose());
+      if (fc.through_ends)
+        core.through_ends = std::make_shared<const Points>(((fc.through_ends->rowwise() - c.transpose()) * band.f).rowwise() + c.transpose());
       Params bp = params;
       bp.scale_min = band.lo;
       bp.scale_max = band.hi;
@@ -696,7 +724,13 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       << " (planar faces on its bounding box where it was cut out; detect_cut_faces)";
     res.warnings.push_back(w.str());
   }
-  if (sr.own_triangles > 0) {
+  if (sr.own_triangles > 0 && !sr.cut.closed) {
+    std::ostringstream w;
+    w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": " << sr.own_triangles
+      << " triangle(s) in two opposite planes of its box that the region passes through between (a wall's two faces, where the box reached past the part): "
+      << "searched again without them, as the part's own faces that an instance may go on past (detect_cut_faces)";
+    res.warnings.push_back(w.str());
+  } else if (sr.own_triangles > 0) {
     std::ostringstream w;
     w << (reference_in.source.empty() ? "reference" : reference_in.source) << ": "
       << (reference_in.from_brep() ? std::to_string(sr.own_faces.size()) + " face(s)" : std::to_string(sr.own_triangles) + " triangle(s)") << " on its bounding box lie on "
@@ -704,6 +738,19 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       << (own_found ? "'s surface where a first search's matches put the reference" : "'s surface where it was cut out of it")
       << ": the part's own faces, where the box reached past the part; left out like cut faces, but the faces ending on them are whole there (cut_faces_on_target)";
     res.warnings.push_back(w.str());
+  }
+  // A clipped region that passes through between two planes of its box (a hole across a wall whose box
+  // reached past both of the wall's faces): those are the part's own faces, which an instance need
+  // not have where the reference has them (a hole through a taller boss goes on past the wall's far
+  // face). It is searched a second time without them, judged where it met them
+  // (HypothesisScorer::through_share), and the instances of both searches join. The first search
+  // keeps them: they hold a larger hole through the same wall to the wall's thickness.
+  if (!through && !sr.cut.closed && sr.cut.own_triangles > 0) {
+    Result second = search_within(reference_in, target, params_in, progress, target_for, nullptr, true);
+    for (std::string& w : second.warnings)
+      if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end() && w.find("(detect_cut_faces)") == std::string::npos)
+        w = "without the planes it passes through between: " + w;
+    merge_through(res, std::move(second), params_in);
   }
   return res;
 }

@@ -257,6 +257,18 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
       }
     }
   }
+  // A clipped region's through ends (FeatureCore::through_ends): judged on a target with B-rep faces.
+  if (core.through_ends && core.through_outward && core.through_ends->rows() > 0 && core.through_outward->rows() == core.through_ends->rows() &&
+      T.dense.face_ids.size() && T.dense.face_ids.maxCoeff() > 0 && p.max_partial_faces < 1) {
+    through_ends_ = *core.through_ends;
+    through_outward_ = *core.through_outward;
+    through_rows_ = stride_subset(core_dense_, 4000);
+    if (target_face_all_.empty()) {
+      target_face_all_.resize(static_cast<std::size_t>(T.dense.face_ids.maxCoeff() + 1));
+      for (Eigen::Index j = 0; j < T.dense.face_ids.size(); ++j)
+        if (T.dense.face_ids(j) > 0) target_face_all_[static_cast<std::size_t>(T.dense.face_ids(j))].push_back(static_cast<int>(j));
+    }
+  }
 }
 
 bool HypothesisScorer::goes_on_through(const Eigen::Matrix4d& H, int f, int g) const {
@@ -272,10 +284,14 @@ bool HypothesisScorer::goes_on_through(const Eigen::Matrix4d& H, int f, int g) c
   }
   for (std::size_t k = 0; k < e.rows.size(); ++k) Y.row(static_cast<Eigen::Index>(k)) = apply_transform(H, R_.dense.points.row(e.rows[k]).transpose()).transpose();
   if (!B.allFinite() || !U.allFinite() || !Y.allFinite()) return false;
-  const KdTree3 ytree(Y), btree(B);
   const double s = std::cbrt(std::abs(transform_jacobian(H, R_.dense.points.row(e.rows[0]).transpose()).determinant()));
-  const double cover = 2.5 * std::max(T_.dense_h, s * R_.dense_h);
-  // every sample of g that f does not cover lies past f's end
+  return goes_on_past(B, U, Y, 2.5 * std::max(T_.dense_h, s * R_.dense_h), g, f) == 1;
+}
+
+int HypothesisScorer::goes_on_past(const Points& B, const Points& U, const Points& Y, double cover, int g, int f) const {
+  if (B.rows() == 0 || Y.rows() == 0 || g <= 0 || static_cast<std::size_t>(g) >= target_face_all_.size()) return 0;
+  const KdTree3 ytree(Y), btree(B);
+  // every sample of g that the mapped reference does not cover lies past its end
   const std::vector<int>& gs = target_face_all_[static_cast<std::size_t>(g)];
   std::vector<std::pair<double, int>> past;  // (how far past the end, target row)
   std::size_t uncovered = 0;
@@ -288,7 +304,8 @@ bool HypothesisScorer::goes_on_through(const Eigen::Matrix4d& H, int f, int g) c
     const double d = (y - B.row(b).transpose()).dot(U.row(b).transpose());
     if (d > 0) past.emplace_back(d, j);
   }
-  if (uncovered == 0 || static_cast<double>(past.size()) < 0.9 * static_cast<double>(uncovered)) return false;
+  if (uncovered == 0) return -1;
+  if (static_cast<double>(past.size()) < 0.9 * static_cast<double>(uncovered)) return 0;
   // where g ends: the part's surface beside its farthest samples faces the way g went
   double far = 0;
   for (const auto& pj : past) far = std::max(far, pj.first);
@@ -310,7 +327,78 @@ bool HypothesisScorer::goes_on_through(const Eigen::Matrix4d& H, int f, int g) c
   if (std::getenv("FE_DEBUG"))
     std::fprintf(stderr, "debug: face %d on target face %d: %zu of %zu uncovered samples past its end, end faces %d ahead, %d back\n", f, g,
                  past.size(), uncovered, ahead, back);
-  return ahead >= 3 && 4 * back < ahead;
+  return ahead >= 3 && 4 * back < ahead ? 1 : 0;
+}
+
+double HypothesisScorer::through_share(const Eigen::Matrix4d& H, double tol) const {
+  if (through_ends_.rows() == 0 || through_rows_.empty()) return 0;
+  Points B(through_ends_.rows(), 3), U(through_ends_.rows(), 3), Y(static_cast<Eigen::Index>(through_rows_.size()), 3);
+  for (Eigen::Index k = 0; k < B.rows(); ++k) {
+    const Eigen::Vector3d x = through_ends_.row(k).transpose();
+    B.row(k) = apply_transform(H, x).transpose();
+    U.row(k) = (transform_jacobian(H, x) * through_outward_.row(k).transpose()).normalized().transpose();
+  }
+  for (std::size_t k = 0; k < through_rows_.size(); ++k)
+    Y.row(static_cast<Eigen::Index>(k)) = apply_transform(H, R_.dense.points.row(through_rows_[k]).transpose()).transpose();
+  if (!B.allFinite() || !U.allFinite() || !Y.allFinite()) return 1;
+  const double s = std::cbrt(std::abs(transform_jacobian(H, through_ends_.row(0).transpose()).determinant()));
+  const double h = std::max(T_.dense_h, s * R_.dense_h), reach = 2.0 * h + 0.5 * tol;
+  std::map<int, int> verdict;  // target face -> covered whole or goes_on_past
+  std::vector<int> idx;
+  std::vector<float> d2;
+  const KdTree3 ytree(Y);
+  int bad = 0;
+  for (Eigen::Index k = 0; k < B.rows(); ++k) {
+    // Around each end point: the plane itself, facing ahead (the region ends where the part does, as
+    // where it was clipped out), or the target faces going on across it (normals across the outward
+    // direction: a hole's wall), each of which must be covered whole or go on past the end and leave
+    // the part (a through hole's exit), not end on a floor facing back or stop short; or, in free space, beyond such a
+    // plane (the instance passes through a thinner wall, and the rest is the fit's to judge).
+    T_.dense_tree->radius(B.row(k).transpose(), reach, idx, d2);
+    int ahead = 0, back = 0;
+    std::vector<int> faces;
+    for (const int q : idx) {
+      const double c = T_.dense_normals.row(q).dot(U.row(k));
+      if (c > 0.7) ++ahead;
+      else if (c < -0.7) ++back;
+      const int g = T_.dense.face_ids(q);
+      if (g > 0 && std::abs(c) < 0.5 && std::find(faces.begin(), faces.end(), g) == faces.end()) faces.push_back(g);
+    }
+    bool ok = ahead > 0 && back < ahead;
+    if (idx.empty()) {  // in free space: past the plane where the instance leaves the part sooner (a thinner wall)?
+      int j;
+      const double d = target_distance(B.row(k).transpose(), &j);
+      ok = j >= 0 && std::isfinite(d) && T_.dense_normals.row(j).dot(U.row(k)) > 0.7 &&
+           (B.row(k) - T_.dense.points.row(j)).dot(T_.dense_normals.row(j)) > 0;
+    }
+    if (!ok && back == 0 && !faces.empty()) {
+      ok = true;
+      for (const int g : faces) {
+        auto it = verdict.find(g);
+        if (it == verdict.end()) {
+          // covered for kWholeFaceFill of its samples, as the whole-faces check asks of picked faces:
+          // the instance's own face, of other proportions (a drilled hole a little deeper)
+          const std::vector<int>& gs = target_face_all_[static_cast<std::size_t>(g)];
+          const std::vector<Eigen::Index> rows = stride_rows(static_cast<Eigen::Index>(gs.size()), 400);
+          std::size_t covered = 0;
+          for (const Eigen::Index r : rows) covered += ytree.nearest_within(T_.dense.points.row(gs[static_cast<std::size_t>(r)]).transpose(), 2.5 * h) >= 0;
+          const bool whole = static_cast<double>(covered) >= kWholeFaceFill * static_cast<double>(rows.size());
+          it = verdict.emplace(g, whole ? 1 : goes_on_past(B, U, Y, 2.5 * h, g, 0)).first;
+        }
+        ok = ok && it->second == 1;
+      }
+    }
+    if (!ok && std::getenv("FE_DEBUG_THROUGH"))
+      std::fprintf(stderr, "debug:   end %ld at (%.1f %.1f %.1f) out (%.2f %.2f %.2f): %zu near, %d ahead, %d back, %zu faces going on%s\n", static_cast<long>(k),
+                   B(k, 0), B(k, 1), B(k, 2), U(k, 0), U(k, 1), U(k, 2), idx.size(), ahead, back, faces.size(), faces.empty() ? "" : (" (" + std::to_string(verdict[faces[0]]) + ")").c_str());
+    bad += ok ? 0 : 1;
+  }
+  if (std::getenv("FE_DEBUG")) {
+    const Eigen::Vector3d lo = B.colwise().minCoeff().transpose(), hi = B.colwise().maxCoeff().transpose();
+    std::fprintf(stderr, "debug: through ends (%.1f %.1f %.1f)..(%.1f %.1f %.1f): %d of %ld neither on the plane nor going on out of the part\n", lo.x(), lo.y(),
+                 lo.z(), hi.x(), hi.y(), hi.z(), bad, static_cast<long>(B.rows()));
+  }
+  return static_cast<double>(bad) / static_cast<double>(B.rows());
 }
 
 HypothesisScorer::~HypothesisScorer() = default;
@@ -590,6 +678,10 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
   }
   if ((ev.accepted() || all) && whole_faces_.reference) {
     ev.partial_faces = whole_faces_.partial_share(H, tol + T_.dense_h, kWholeFaceFill);
+    ev.checks.push_back({"max_partial_faces", ev.partial_faces, p_.max_partial_faces, ev.partial_faces <= p_.max_partial_faces});
+  }
+  if ((ev.accepted() || all) && through_ends_.rows() > 0) {
+    ev.partial_faces = std::max(ev.partial_faces, through_share(H, tol));
     ev.checks.push_back({"max_partial_faces", ev.partial_faces, p_.max_partial_faces, ev.partial_faces <= p_.max_partial_faces});
   }
   return ev;

@@ -36,6 +36,11 @@ struct FeatureCore {
   /// their face on an instance, on their side toward the border (HypothesisScorer::overhangs).
   std::shared_ptr<const Points> open_border;
   std::shared_ptr<const std::vector<int>> open_border_face;  ///< the B-rep face of each open_border point
+  /// Where a clipped mesh region passes through between two planes of its box, left out as the part's
+  /// own faces (CutFaces::own_triangle, through_rims): the points where the feature met those planes,
+  /// in the reference's frame, and the planes' outward normals. On an instance the feature may go on
+  /// past them only where it leaves the part there (HypothesisScorer::through_share).
+  std::shared_ptr<const Points> through_ends, through_outward;
   bool contains(const Eigen::Vector3d& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
 };
 constexpr double kContextMargin = 0.2;
@@ -173,6 +178,21 @@ class HypothesisScorer {
   /// the part's surface faces the way g went (it leaves the part: a through hole's exit), not back
   /// (a pocket's far wall, a blind hole's floor).
   bool goes_on_through(const Eigen::Matrix4d& H, int f, int g) const;
+  /// The core of goes_on_through, with the ends B (outward U) and the covering samples Y already
+  /// mapped: 1 when every sample of target face g that Y does not cover (within `cover`) lies past the ends and the
+  /// part's surface where g ends faces ahead, 0 when not, -1 when Y covers g whole. `f` names the
+  /// reference face in the debug trace (0: a clipped region's through ends).
+  int goes_on_past(const Points& B, const Points& U, const Points& Y, double cover, int g, int f) const;
+  /// A clipped region that passes through between two planes of its box (FeatureCore::through_ends):
+  /// where H puts the points where it met them, each must lie on the plane (target samples facing the
+  /// plane's outward way, none more facing back), or on target faces that go on across it, each
+  /// covered for kWholeFaceFill by the mapped reference or going on past the end and leaving the part
+  /// there (goes_on_past), or in free space beyond a surface facing the outward way. The share of those points that do
+  /// neither (0 when not measured): a hole through a wall, clipped out of an STL, laid on the first
+  /// part of a blind hole. `tol`: the acceptance tolerance (half of it widens the search around each).
+  double through_share(const Eigen::Matrix4d& H, double tol) const;
+  Points through_ends_, through_outward_;
+  std::vector<Eigen::Index> through_rows_;  // dense rows that cover a target face (stride subset of the core)
   std::unique_ptr<KdTree3> tkey_tree_;
 };
 

@@ -101,7 +101,11 @@ namespace {
 // Matches of another search of the same reference join `res`: their H maps that search's reference,
 // which is M applied to this one's (H M); where two are the same instance the first stays unless the
 // other scores 0.02 more. Counts and timings are added, the timings under `prefix`.
-void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, double scale, const std::string& prefix, const Params& p) {
+// `faceless_overlap`: a joining match that lists no faces (a fit that covers no target face enough,
+// as one sliding along a longer instance does) is the same instance as any match whose box its box
+// meets.
+void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, double scale, const std::string& prefix, const Params& p,
+          bool faceless_overlap = false) {
   for (Match& m : other.matches) {
     m.transform = m.transform * M;
     m.transform /= m.transform(3, 3);
@@ -115,7 +119,9 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
     Match* same = nullptr;
     double most = -1;
     for (Match& d : res.matches) {
-      if (!same_instance(m, d, p.max_overlap)) continue;
+      const bool meets = faceless_overlap && m.faces.empty() && !d.faces.empty() && (m.bbox_min.array() <= d.bbox_max.array()).all() &&
+                         (d.bbox_min.array() <= m.bbox_max.array()).all();
+      if (!meets && !same_instance(m, d, p.max_overlap)) continue;
       const double share = overlap_share(m, d);
       if (share > most) {
         most = share;
@@ -142,6 +148,10 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
 
 void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p) {
   join(res, std::move(mirrored), M, true, 1.0, "mirror_", p);
+}
+
+void merge_through(Result& res, Result through, const Params& p) {
+  join(res, std::move(through), Eigen::Matrix4d::Identity(), false, 1.0, "through_", p, true);
 }
 
 void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p) {

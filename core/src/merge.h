@@ -43,6 +43,12 @@ double overlap_share(const Match& a, const Match& b);
 /// (overlap_share). Counts and timings are added.
 void merge_mirrored(Result& res, Result mirrored, const Eigen::Matrix4d& M, const Params& p);
 
+/// Matches of a clipped region's second search, without the planes it passes through between
+/// (search_within), join the result as merge_mirrored's do (same frame: H unchanged); one that lists
+/// no target faces (a fit sliding along a longer hole than the first search's match of it) is the
+/// same instance as any match whose box its box meets.
+void merge_through(Result& res, Result through, const Params& p);
+
 /// Scale bands. One pass of the search covers instances kBandScaleMin to kBandScaleMax times the
 /// reference well (SHOT's radius ladder and the key points' curvature radius are set by the
 /// reference's size): a range beyond that (scale_min 1/3, scale_max 3) is searched in bands, each a

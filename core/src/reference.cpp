@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <bitset>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -78,6 +79,77 @@ void summarize_cut(const TriangleMesh& m, const std::vector<int>& plane, CutFace
     if (is_cut[static_cast<std::size_t>(f)]) out.faces.push_back(f);
 }
 
+// Connected triangles in one bounding-box plane (`plane`, from box_plane; -1 elsewhere): per triangle
+// a region id, or -1 (mesh input, where no B-rep face says which triangles belong together).
+std::vector<int> coplanar_regions(const TriangleMesh& m, const std::vector<int>& plane, const std::vector<int>& vid) {
+  const Eigen::Index T = m.triangles.rows();
+  std::vector<int> parent(static_cast<std::size_t>(T));
+  std::iota(parent.begin(), parent.end(), 0);
+  std::unordered_map<std::uint64_t, int> first;  // (welded vertex, plane) -> a triangle
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int p = plane[static_cast<std::size_t>(t)];
+    if (p < 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint64_t key = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, k))]) * 8 + static_cast<std::uint64_t>(p);
+      const auto it = first.emplace(key, static_cast<int>(t));
+      if (!it.second) parent[static_cast<std::size_t>(find_root(parent, static_cast<int>(t)))] = find_root(parent, it.first->second);
+    }
+  }
+  std::vector<int> region(static_cast<std::size_t>(T), -1);
+  for (Eigen::Index t = 0; t < T; ++t)
+    if (plane[static_cast<std::size_t>(t)] >= 0) region[static_cast<std::size_t>(t)] = find_root(parent, static_cast<int>(t));
+  return region;
+}
+
+// A clipped region's own faces in two opposite planes of its box (CutFaces::own_triangle): per
+// unclipped side, the coplanar regions lying in it that reach every clipped side around it (at least
+// two); where both sides of one axis have such a region, their triangles are marked.
+void mark_through_planes(const TriangleMesh& m, const std::vector<int>& vid, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                         double tol, CutFaces& out) {
+  const Eigen::Index T = m.triangles.rows();
+  std::vector<int> plane(static_cast<std::size_t>(T), -1);
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int p = box_plane(m, t, lo, hi, tol);
+    if (p >= 0 && !out.cut_sides[static_cast<std::size_t>(p)]) plane[static_cast<std::size_t>(t)] = p;
+  }
+  const std::vector<int> region = coplanar_regions(m, plane, vid);
+  std::unordered_map<int, unsigned> reached;  // region -> bounding-box sides its vertices lie on (bit per side)
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int r = region[static_cast<std::size_t>(t)];
+    if (r < 0) continue;
+    unsigned& bits = reached[r];
+    for (int k = 0; k < 3; ++k)
+      for (int axis = 0; axis < 3; ++axis) {
+        const double x = m.vertices(m.triangles(t, k), axis);
+        if (std::abs(x - lo(axis)) <= tol) bits |= 1u << (2 * axis);
+        if (std::abs(x - hi(axis)) <= tol) bits |= 1u << (2 * axis + 1);
+      }
+  }
+  std::unordered_map<int, char> spans;  // region -> it reaches every clipped side around its plane
+  std::array<bool, 6> side_spanned{};
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int r = region[static_cast<std::size_t>(t)];
+    if (r < 0 || spans.count(r)) continue;
+    const int axis = plane[static_cast<std::size_t>(t)] / 2;
+    unsigned around = 0;
+    for (int s = 0; s < 6; ++s)
+      if (s / 2 != axis && out.cut_sides[static_cast<std::size_t>(s)]) around |= 1u << s;
+    const bool ok = std::bitset<6>(around).count() >= 2 && (reached[r] & around) == around;
+    spans[r] = ok;
+    if (ok) side_spanned[static_cast<std::size_t>(plane[static_cast<std::size_t>(t)])] = true;
+  }
+  out.own_triangle.assign(static_cast<std::size_t>(T), 0);
+  out.own_triangles = 0;
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const int r = region[static_cast<std::size_t>(t)];
+    if (r < 0 || !spans[r]) continue;
+    const int p = plane[static_cast<std::size_t>(t)];
+    if (!side_spanned[static_cast<std::size_t>(p ^ 1)]) continue;  // the opposite side has none: not passed through
+    out.own_triangle[static_cast<std::size_t>(t)] = 1;
+    ++out.own_triangles;
+  }
+}
+
 }  // namespace
 
 CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
@@ -140,6 +212,7 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
       const double span = std::min(hi((axis + 1) % 3) - lo((axis + 1) % 3), hi((axis + 2) % 3) - lo((axis + 2) % 3));
       out.cut_sides[s] = along[s] >= kBorderShare * open || along[s] >= kSideSpan * span;
     }
+    mark_through_planes(m, vid, lo, hi, tol, out);
     return out;
   }
 
@@ -168,20 +241,7 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
       region[static_cast<std::size_t>(t)] = face_plane[static_cast<std::size_t>(f)] >= 0 && f > 0 ? f : -1;
     }
   } else {
-    std::vector<int> parent(static_cast<std::size_t>(T));
-    std::iota(parent.begin(), parent.end(), 0);
-    std::unordered_map<std::uint64_t, int> first;  // (welded vertex, plane) -> a triangle
-    for (Eigen::Index t = 0; t < T; ++t) {
-      const int p = plane[static_cast<std::size_t>(t)];
-      if (p < 0) continue;
-      for (int k = 0; k < 3; ++k) {
-        const std::uint64_t key = static_cast<std::uint64_t>(vid[static_cast<std::size_t>(m.triangles(t, k))]) * 8 + static_cast<std::uint64_t>(p);
-        const auto it = first.emplace(key, static_cast<int>(t));
-        if (!it.second) parent[static_cast<std::size_t>(find_root(parent, static_cast<int>(t)))] = find_root(parent, it.first->second);
-      }
-    }
-    for (Eigen::Index t = 0; t < T; ++t)
-      region[static_cast<std::size_t>(t)] = plane[static_cast<std::size_t>(t)] >= 0 ? find_root(parent, static_cast<int>(t)) : -1;
+    region = coplanar_regions(m, plane, vid);
   }
   // A region is cut if it reaches a bounding-box plane of another axis.
   std::unordered_map<int, char> reaches;
@@ -210,6 +270,37 @@ CutFaces detect_cut_faces(const TriangleMesh& m, double tolerance) {
     return out;
   }
   summarize_cut(m, plane, out);
+  return out;
+}
+
+Points through_rims(const TriangleMesh& m, const CutFaces& cut, Points* outward) {
+  const Eigen::Index T = m.triangles.rows();
+  if (cut.own_triangles == 0 || cut.own_triangle.size() != static_cast<std::size_t>(T)) {
+    *outward = Points(0, 3);
+    return Points(0, 3);
+  }
+  const std::vector<int> vid = weld(m.vertices, 1e-7 * m.diagonal());
+  std::vector<char> in_rest(static_cast<std::size_t>(m.vertices.rows()), 0);  // per welded vertex: used by a kept triangle
+  for (Eigen::Index t = 0; t < T; ++t)
+    if (!cut.own_triangle[static_cast<std::size_t>(t)])
+      for (int k = 0; k < 3; ++k) in_rest[static_cast<std::size_t>(vid[static_cast<std::size_t>(m.triangles(t, k))])] = 1;
+  std::map<int, std::pair<Eigen::Vector3d, Eigen::Vector3d>> rim;  // welded vertex -> (position, outward)
+  for (Eigen::Index t = 0; t < T; ++t) {
+    if (!cut.own_triangle[static_cast<std::size_t>(t)]) continue;
+    const Eigen::Vector3d a = m.vertices.row(m.triangles(t, 0)), b = m.vertices.row(m.triangles(t, 1)), c = m.vertices.row(m.triangles(t, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      const int v = vid[static_cast<std::size_t>(m.triangles(t, k))];
+      if (in_rest[static_cast<std::size_t>(v)]) rim.emplace(v, std::make_pair(Eigen::Vector3d(m.vertices.row(m.triangles(t, k)).transpose()), n));
+    }
+  }
+  Points out(static_cast<Eigen::Index>(rim.size()), 3);
+  *outward = Points(out.rows(), 3);
+  Eigen::Index k = 0;
+  for (const auto& [v, pn] : rim) {
+    out.row(k) = pn.first.transpose();
+    outward->row(k++) = pn.second.transpose();
+  }
   return out;
 }
 

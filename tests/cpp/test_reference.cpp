@@ -105,6 +105,42 @@ TEST(CutFaces, StlRegionClippedByABoxIsOpenAndCutAlongItsBorder) {
   for (int s = 0; s < 4; ++s) EXPECT_TRUE(c.cut_sides[static_cast<std::size_t>(s)]) << "side " << s;
   EXPECT_FALSE(c.cut_sides[4]);  // the plate's bottom lies on the box's -z side but is surface
   EXPECT_FALSE(c.cut_sides[5]);  // the rib's top
+  // the plate's bottom spans the box's -z side, but nothing spans +z (the rib's top reaches only the
+  // rib's ends): the region does not pass through between them, and nothing is left out
+  EXPECT_EQ(c.own_triangles, 0u);
+}
+
+TEST(CutFaces, AStlRegionAcrossAPlateKeepsItsTwoFacesAsThePartsOwn) {
+  // counterbore_boss.step's reference hole (x 30, y 35, through the 24 mm plate: z -24 to 0) clipped
+  // with a box reaching past both of the plate's faces, as from an STL: clipped along its four
+  // vertical sides; the plate's top and bottom, each spanning the box from side to side, are the
+  // two faces of the wall the hole passes through, where the box reached past the part (issue 9)
+  const fe::TriangleMesh part = fe::read_shape(models() + "/counterbore_boss.step");
+  const fe::TriangleMesh ref = fe_test::clip_to_box(part, {19, 24, -30}, {41, 46, 6});
+  const fe::CutFaces c = fe::detect_cut_faces(ref);
+  EXPECT_FALSE(c.closed);
+  for (int s = 0; s < 4; ++s) EXPECT_TRUE(c.cut_sides[static_cast<std::size_t>(s)]) << "side " << s;
+  EXPECT_FALSE(c.cut_sides[4]);
+  EXPECT_FALSE(c.cut_sides[5]);
+  ASSERT_EQ(c.own_triangle.size(), static_cast<std::size_t>(ref.triangles.rows()));
+  std::size_t top = 0, bottom = 0, planar = 0;
+  for (Eigen::Index t = 0; t < ref.triangles.rows(); ++t) {
+    const double z0 = ref.vertices(ref.triangles(t, 0), 2), z1 = ref.vertices(ref.triangles(t, 1), 2), z2 = ref.vertices(ref.triangles(t, 2), 2);
+    const bool on_top = std::max({z0, z1, z2}) > -1e-6 && std::min({z0, z1, z2}) > -1e-6;
+    const bool on_bottom = std::max({z0, z1, z2}) < -24 + 1e-6;
+    planar += on_top || on_bottom;
+    if (!c.own_triangle[static_cast<std::size_t>(t)]) continue;
+    top += on_top;
+    bottom += on_bottom;
+    EXPECT_TRUE(on_top || on_bottom) << "triangle " << t << " at z " << z0;
+  }
+  EXPECT_GT(top, 0u);
+  EXPECT_GT(bottom, 0u);
+  EXPECT_EQ(top + bottom, planar);  // every triangle of the two faces, and nothing else
+  EXPECT_EQ(c.own_triangles, planar);
+  // a box that stops inside the plate (above its bottom) leaves one face: not passed through
+  const fe::CutFaces half = fe::detect_cut_faces(fe_test::clip_to_box(part, {19, 24, -12}, {41, 46, 6}));
+  EXPECT_EQ(half.own_triangles, 0u);
 }
 
 TEST(CutFaces, APlaneClippedAcrossAWholeSideIsCutThereThoughTheRegionHasMuchBorderElsewhere) {

@@ -22,6 +22,14 @@ struct CutFaces {
   /// faces (closed reference), or, for an open mesh region clipped out of a mesh with a box, at
   /// least a tenth of its border runs along them (`triangles` is then 0: nothing is left out).
   std::array<bool, 6> cut_sides{};
+  /// For an open mesh region clipped out of a mesh with a box: its planar faces in two opposite,
+  /// unclipped planes of its box, each reaching every clipped side around it (at least two). The
+  /// region passes through between them, like a hole across a wall whose box reached past both of
+  /// the wall's faces: they are the part's own faces, left out of the search like a box cut's own
+  /// faces (searched_reference), so that the faces ending on them are whole there. Per triangle, 1
+  /// for such a face (empty for a closed reference or picked faces).
+  std::vector<char> own_triangle;
+  std::size_t own_triangles = 0;  ///< their number
   bool any_side_cut() const {
     for (bool s : cut_sides)
       if (s) return true;
@@ -50,6 +58,11 @@ std::vector<char> cut_faces_on_target(const TriangleMesh& reference, const CutFa
 /// `m` placed by H (apply_transform on every vertex; the winding reversed where H mirrors, so that
 /// normals stay outward): a reference where one of its matches put it on the target.
 TriangleMesh placed_mesh(const TriangleMesh& m, const Eigen::Matrix4d& H);
+
+/// Where a clipped region meets the planes it passes through between (CutFaces::own_triangle): the
+/// vertices those planes share with the rest of the region, once each, and in *outward the planes'
+/// outward unit normals there. Empty when it has none.
+Points through_rims(const TriangleMesh& mesh, const CutFaces& cut, Points* outward);
 
 /// `cut` without the triangles marked in `own` (they are kept as the reference's faces): the count,
 /// the B-rep faces and the cut sides again.
