@@ -564,6 +564,46 @@ TEST(MergeStage, AJoiningMatchIsTheInstanceItSharesMostWith) {
   }
 }
 
+// A clipped region's second search (without the planes it passes through between) can slide along a
+// hole longer than the reference's: counterbore_bosses' STL hole at ref0.7 was matched on the taller
+// boss's hole by the first search (its counterbore's faces) and, 14 mm lower, by the second, whose
+// fit covers no face enough to list it. Such a faceless fit meeting a match's box is that instance;
+// one meeting none is an instance of its own; a fit that lists faces joins as any other does.
+TEST(MergeStage, AFacelessFitOfTheThroughSearchThatMeetsAMatchIsThatInstance) {
+  fe::Params p;
+  fe::Match first;
+  first.faces = {18, 26};
+  first.score = 0.975;
+  first.center = Eigen::Vector3d(50, 40, 34.2);
+  first.bbox_min = Eigen::Vector3d(45, 35, 26);
+  first.bbox_max = Eigen::Vector3d(55, 45, 40);
+  fe::Match lower;
+  lower.score = 0.863;
+  lower.center = Eigen::Vector3d(50, 40, 20.3);
+  lower.bbox_min = Eigen::Vector3d(46, 36, 13);
+  lower.bbox_max = Eigen::Vector3d(54, 44, 27);
+  ASSERT_FALSE(fe::same_instance(lower, first, p.max_overlap));  // a box overlap of 1 mm in 14
+  fe::Match apart = lower;
+  apart.center.x() += 100;
+  apart.bbox_min.x() += 100;
+  apart.bbox_max.x() += 100;
+  fe::Result r;
+  r.matches = {first};
+  fe::Result through;
+  through.matches = {lower, apart};
+  fe::merge_through(r, through, p);
+  ASSERT_EQ(r.matches.size(), 2u);
+  EXPECT_EQ(r.matches[0].faces, first.faces);
+  EXPECT_NEAR(r.matches[1].center.x(), 150, 1e-9);
+  // the same two joining as a mirrored search's would: the lower one stays, a second instance of the hole
+  fe::Result m;
+  m.matches = {first};
+  fe::Result mirrored;
+  mirrored.matches = {lower};
+  fe::merge_mirrored(m, mirrored, Eigen::Matrix4d::Identity(), p);
+  EXPECT_EQ(m.matches.size(), 2u);
+}
+
 }  // namespace
 
 // The ridge-and-rut fallback's target description reuses the first pass's (describe_reusing): it must
