@@ -744,8 +744,9 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   // not have where the reference has them (a hole through a taller boss goes on past the wall's far
   // face). It is searched a second time without them, judged where it met them
   // (HypothesisScorer::through_share), and the instances of both searches join. The first search
-  // keeps them: they hold a larger hole through the same wall to the wall's thickness.
-  if (!through && !sr.cut.closed && sr.cut.own_triangles > 0) {
+  // keeps them: they hold a larger hole through the same wall to the wall's thickness. Only on a
+  // target with B-rep faces: a mesh target has none to tell a face that goes on from one that ends.
+  if (!through && !sr.cut.closed && sr.cut.own_triangles > 0 && target.from_brep()) {
     Result second = search_within(reference_in, target, params_in, progress, target_for, nullptr, true);
     for (std::string& w : second.warnings)
       if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end() && w.find("(detect_cut_faces)") == std::string::npos)
