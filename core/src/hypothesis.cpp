@@ -388,7 +388,7 @@ double HypothesisScorer::through_share(const Eigen::Matrix4d& H, double tol) con
         ok = ok && it->second == 1;
       }
     }
-    if (!ok && std::getenv("FE_DEBUG_THROUGH"))
+    if (!ok && std::getenv("FE_DEBUG"))
       std::fprintf(stderr, "debug:   end %ld at (%.1f %.1f %.1f) out (%.2f %.2f %.2f): %zu near, %d ahead, %d back, %zu faces going on%s\n", static_cast<long>(k),
                    B(k, 0), B(k, 1), B(k, 2), U(k, 0), U(k, 1), U(k, 2), idx.size(), ahead, back, faces.size(), faces.empty() ? "" : (" (" + std::to_string(verdict[faces[0]]) + ")").c_str());
     bad += ok ? 0 : 1;
