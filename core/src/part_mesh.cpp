@@ -71,17 +71,22 @@ Eigen::Matrix3d instance_linear(const nlohmann::json& spec, const Eigen::Vector3
   return H.topLeftCorner<3, 3>();
 }
 
-// The instance's scale, from that transform's upper 3 x 3 (1 without one).
-double instance_scale(const nlohmann::json& spec) { return std::cbrt(std::abs(instance_linear(spec).determinant())); }
+// The linear part of the instance's transform where its placed patch lies (its nodes' mean): a
+// projective fit's scale changes across the part, so its upper 3 x 3 alone can be far off.
+Eigen::Matrix3d patch_linear(const nlohmann::json& spec, const FeMesh& patch) {
+  if (patch.nodes.rows() == 0) return instance_linear(spec);
+  const Eigen::Vector3d centroid = patch.nodes.colwise().mean().transpose();
+  return instance_linear(spec, &centroid);
+}
 
 // The width of the specification's transition zone on this instance (its "transition_zone" rule's
-// width times the instance's scale), 0 without one.
-double transition_width(const std::string& spec_json) {
+// width times the instance's scale at its patch), 0 without one.
+double transition_width(const std::string& spec_json, const FeMesh& patch) {
   const nlohmann::json spec = nlohmann::json::parse(spec_json, nullptr, false);
   if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return 0;
   for (const auto& r : spec["rules"])
     if (r.is_object() && r.contains("rule") && r["rule"] == "transition_zone" && r.contains("width") && r["width"].is_number()) {
-      const double w = r["width"].get<double>() * instance_scale(spec);
+      const double w = r["width"].get<double>() * std::cbrt(std::abs(patch_linear(spec, patch).determinant()));
       return std::isfinite(w) && w > 0 ? w : 0;
     }
   return 0;
@@ -439,7 +444,7 @@ std::string part_mesh_job(const std::string& part_path, int part_faces, double s
     nlohmann::json pj;
     pj["faces"] = p.faces;
     pj["tolerance"] = tolerance_factor * median_edge(p.mesh);
-    if (const double w = transition_width(p.spec_json); w > 0 && !plain) pj["transition"] = {{"width", w}, {"size", median_edge(p.mesh)}};
+    if (const double w = transition_width(p.spec_json, p.mesh); w > 0 && !plain) pj["transition"] = {{"width", w}, {"size", median_edge(p.mesh)}};
     pj["nodes"] = nlohmann::json::array();
     for (Eigen::Index i = 0; i < p.mesh.nodes.rows(); ++i)
       pj["nodes"].push_back({key + i, p.mesh.nodes(i, 0), p.mesh.nodes(i, 1), p.mesh.nodes(i, 2)});
@@ -939,8 +944,7 @@ std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
   nlohmann::json out = nlohmann::json::array();
   if (!spec.is_object() || !spec.contains("rules") || !spec["rules"].is_array()) return out.dump();
   // the instance's scale and the reference +x direction, from the transform's Jacobian at the patch
-  const Eigen::Vector3d centroid = patch.nodes.rows() > 0 ? Eigen::Vector3d(patch.nodes.colwise().mean().transpose()) : Eigen::Vector3d::Zero();
-  const Eigen::Matrix3d A = instance_linear(spec, patch.nodes.rows() > 0 ? &centroid : nullptr);
+  const Eigen::Matrix3d A = patch_linear(spec, patch);
   const double scale = std::cbrt(std::abs(A.determinant()));
   const double size = spec.contains("element") && spec["element"].is_object() && spec["element"].contains("size") &&
                               spec["element"]["size"].is_number() ? spec["element"]["size"].get<double>() : 0.0;
@@ -1011,7 +1015,7 @@ std::string check_rules(const FeMesh& patch, const std::string& spec_json) {
 
 std::string check_transition(const FeMesh& whole, std::size_t patch_elements, const FeMesh& patch, const std::string& spec_json,
                              double rest_size) {
-  const double width = transition_width(spec_json);
+  const double width = transition_width(spec_json, patch);
   if (!(width > 0)) return "";
   const double small = median_edge(patch);
   nlohmann::json r = {{"rule", "transition_zone"}, {"width", width}, {"from_size", small}, {"to_size", rest_size}};

@@ -3,10 +3,13 @@
 // The mesher itself (gmsh) is exercised by tests/cli/test_mesh_part.py.
 #include "featureextract/part_mesh.h"
 
+#include "featureextract/geometry.h"
 #include "featureextract/mesh.h"
 #include "test_util.h"
 
+#include <Eigen/LU>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cstdlib>
@@ -195,6 +198,24 @@ TEST(PartMeshClaim, AFaceUnderAPatchThatSitsAnEdgeOffStaysClaimed) {
   // and two edges off, it does not
   p.mesh.nodes.col(2).array() += 1.0;
   EXPECT_EQ(fe::claim_covered_faces(p, three_flat_faces()).dropped_faces, (std::vector<int>{1}));
+}
+
+TEST(PartMesh, TheTransitionZoneIsScaledAsTheInstanceIsWhereItsPatchLies) {
+  // A projective fit (perspective row -0.02 along x): around x = 25 the instance is about 1.7 times
+  // the reference, while the transform's upper 3 x 3 is the identity. The mesher must get the zone's
+  // width scaled as the instance is there, as check_rules scales the element size.
+  fe::PartPatch p = one_triangle_patch();
+  p.mesh.nodes.col(0).array() += 25.0;
+  p.spec_json = R"({"rules": [{"rule": "transition_zone", "width": 2}],
+                    "transform": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [-0.02, 0, 0, 1]]})";
+  Eigen::Matrix4d H = Eigen::Matrix4d::Identity();
+  H(3, 0) = -0.02;
+  const Eigen::Vector3d centroid = p.mesh.nodes.colwise().mean().transpose();
+  const double scale = std::cbrt(std::abs(fe::transform_jacobian(H, fe::apply_transform(H.inverse(), centroid)).determinant()));
+  ASSERT_GT(scale, 1.5);
+  const auto job = nlohmann::json::parse(fe::part_mesh_job("part.step", 4, 5.0, {p}, false, 0.1, {}));
+  ASSERT_TRUE(job["patches"][0].contains("transition"));
+  EXPECT_NEAR(job["patches"][0]["transition"]["width"].get<double>(), 2 * scale, 1e-6);
 }
 
 TEST(PartMesh, OfTwoPatchesOnTheSameFacesTheBetterStays) {
