@@ -104,8 +104,10 @@ namespace {
 // `faceless_overlap`: a joining match that lists no faces (a fit that covers no target face enough,
 // as one sliding along a longer instance does) is the same instance as any match whose box its box
 // meets.
+// `replace_from` > 0: a joining match only replaces a match of scale replace_from or more that is
+// the same instance, where it scores at least as well (within 0.005); it is never added.
 void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, double scale, const std::string& prefix, const Params& p,
-          bool faceless_overlap = false) {
+          bool faceless_overlap = false, double replace_from = 0) {
   for (Match& m : other.matches) {
     m.transform = m.transform * M;
     m.transform /= m.transform(3, 3);
@@ -128,10 +130,13 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
         same = &d;
       }
     }
-    if (!same)
+    if (replace_from > 0) {
+      if (same && same->scale >= replace_from && m.score >= same->score - 0.005) *same = m;
+    } else if (!same) {
       res.matches.push_back(m);
-    else if (m.score > same->score + 0.02)
+    } else if (m.score > same->score + 0.02) {
       *same = m;
+    }
   }
   sort_matches(res.matches);
   res.pairs_shot += other.pairs_shot;
@@ -161,6 +166,13 @@ void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const 
   join(res, std::move(band), S, false, f, prefix.str(), p);
 }
 
+void merge_band_above(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p, double near_top) {
+  const double f = S(0, 0);
+  std::ostringstream prefix;
+  prefix << "band_above_" << f << "_";
+  join(res, std::move(band), S, false, f, prefix.str(), p, false, near_top);
+}
+
 Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f) {
   Eigen::Matrix4d S = Eigen::Matrix4d::Identity();
   S.topLeftCorner<3, 3>() *= f;
@@ -180,6 +192,8 @@ ScaleBand band_for(double a, double b) {
   return {a, 1.0, b / a};
 }
 }  // namespace
+
+ScaleBand band_above(double top) { return band_for(top, top * kBandScaleMax / kBandScaleMin); }
 
 std::vector<ScaleBand> scale_bands(double scale_min, double scale_max) {
   if (scale_min >= kBandScaleMin * (1 - 1e-9) && scale_max <= kBandScaleMax * (1 + 1e-9)) return {{1.0, scale_min, scale_max}};

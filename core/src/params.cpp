@@ -47,7 +47,7 @@ const std::vector<Entry>& entries() {
       {kDescriptors, "shot_radii", &Params::shot_radii, "count", "SHOT radii per descriptor (multi-radius SHOT)", 1, 8},
       {kDescriptors, "shot_radius_ratio", &Params::shot_radius_ratio, "", "ratio of consecutive SHOT radii; also the step of the scale search", 1.05, 3},
       {kDescriptors, "scale_min", &Params::scale_min, "", "smallest instance/reference scale searched (SHOT radius shifts; below 0.8 in scale bands: one more pass per band, the reference shrunk and the part described finer, so slower)", 0.1, 1},
-      {kDescriptors, "scale_max", &Params::scale_max, "", "largest instance/reference scale searched (SHOT radius shifts; above 2.6 in scale bands, one more pass per band)", 1, 10},
+      {kDescriptors, "scale_max", &Params::scale_max, "", "largest instance/reference scale searched (SHOT radius shifts; above 2.6 in scale bands, one more pass per band; a match within 5 % of it is fitted again in the band above, as it may be a larger instance squeezed into the range)", 1, 10},
       {kKeyPoints, "si_band", &Params::si_band, "", "half-width of the rut (0.25) and ridge (0.75) shape-index bands that are not key points", 0, 0.25},
       {kKeyPoints, "ridge_rut_spacing", &Params::ridge_rut_spacing, "x L", "if > 0, ridge and rut points (cylinders: holes, lugs, bosses) are key points too, thinned to one per cube of this size; 0 = the paper's rule", 0, 1},
       {kKeyPoints, "crease_key_points", &Params::crease_key_points, "", "sharp edges and corners where planes meet (machined features), which the curvature fit sees as planes, get the shape index of the rounded crease: edges 0.75 / 0.25 (ridge / rut), corners 1 / 0 / 0.5 (cap / cup / saddle)", 0, 1},

@@ -495,6 +495,51 @@ TEST(MergeStage, AScaleBandsMatchMapsTheReferenceItselfAndKeepsTheBetterOfTwo) {
   EXPECT_EQ(std::count_if(all.matches.begin(), all.matches.end(), [](const fe::Match& x) { return x.score == 0.95; }), 1);
 }
 
+TEST(MergeStage, TheBandAboveOnlyRefitsAnInstanceFoundNearTheTopOfTheRange) {
+  // the band above the range (band_above) was searched because a match lies near its top: its match
+  // of that instance replaces it where it scores as well (its fit was squeezed into the range); its
+  // match of an instance found well inside the range, and its matches of instances not found, do not
+  fe::Params p;
+  const fe::ScaleBand above = fe::band_above(2.6);
+  EXPECT_NEAR(above.f * above.lo, 2.6, 1e-9);
+  EXPECT_GT(above.f * above.hi, 8.0);
+  fe::Result all, band;
+  fe::Match squeezed, inside;
+  squeezed.faces = {1, 2, 3};
+  squeezed.scale = 2.49;
+  squeezed.score = 0.955;
+  inside.faces = {4, 5, 6};
+  inside.scale = 1.5;
+  inside.score = 0.97;
+  all.matches = {squeezed, inside};
+  fe::Match refit = squeezed, other = inside, beyond;
+  refit.scale = 2.9 / above.f;  // relative to the band's reference
+  refit.score = 1.0;
+  other.score = 1.0;
+  beyond.faces = {7, 8, 9};
+  beyond.score = 1.0;
+  band.matches = {refit, other, beyond};
+  fe::merge_band_above(all, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 0.95 * 2.6);
+  ASSERT_EQ(all.matches.size(), 2u);
+  for (const fe::Match& m : all.matches) {
+    if (m.faces == std::vector<int>{1, 2, 3}) {
+      EXPECT_NEAR(m.scale, 2.9, 1e-9);
+      EXPECT_EQ(m.score, 1.0);
+    } else {
+      EXPECT_EQ(m.faces, (std::vector<int>{4, 5, 6}));
+      EXPECT_EQ(m.score, 0.97);
+    }
+  }
+  // a refit that scores clearly less leaves the first
+  fe::Result again;
+  again.matches = {squeezed};
+  refit.score = 0.9;
+  band.matches = {refit};
+  fe::merge_band_above(again, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 0.95 * 2.6);
+  ASSERT_EQ(again.matches.size(), 1u);
+  EXPECT_EQ(again.matches[0].score, 0.955);
+}
+
 TEST(MergeStage, AMirroredMatchReplacesADirectOneOnlyWhenClearlyBetter) {
   fe::Params p;
   fe::Result direct;
