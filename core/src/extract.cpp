@@ -693,13 +693,13 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     // volume ratio and the SHOT radii stop there): iso_scale's 3x rib came out at 2.68, stretched
     // 2.4-3.0, score 0.97, and the FE mesh placed on it failed the quality goal. The band above is
     // searched for a better fit of it (merge_band_above).
-    const double near_top = 0.95 * top;
+    const double near_top = kNearTop * top;
     const ScaleBand above = band_above(top);
     if (std::any_of(out.matches.begin(), out.matches.end(), [&](const Match& m) { return m.scale >= near_top; }) &&
         reference.diagonal() * above.f * above.lo <= Lt * 1.0001) {
       const Eigen::Matrix4d S = scaling_about(c, above.f);
       try {
-        merge_band_above(out, band_pass(above), S, params, near_top);
+        merge_band_above(out, band_pass(above), S, params, top);
       } catch (const NoKeyPoints&) {  // nothing better: the first fits stay
       } catch (const InputError&) {
       }

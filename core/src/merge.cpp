@@ -105,9 +105,11 @@ namespace {
 // as one sliding along a longer instance does) is the same instance as any match whose box its box
 // meets.
 // `replace_from` > 0: a joining match only replaces a match of scale replace_from or more that is
-// the same instance, where it scores at least as well (within 0.005); it is never added.
-void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, double scale, const std::string& prefix, const Params& p,
-          bool faceless_overlap = false, double replace_from = 0) {
+// the same instance, where it scores at least as well (within 0.005); it is never added. Returns
+// how many joining matches were the same instance as none.
+int join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, double scale, const std::string& prefix, const Params& p,
+         bool faceless_overlap = false, double replace_from = 0) {
+  int alone = 0;
   for (Match& m : other.matches) {
     m.transform = m.transform * M;
     m.transform /= m.transform(3, 3);
@@ -130,6 +132,7 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
         same = &d;
       }
     }
+    alone += same ? 0 : 1;
     if (replace_from > 0) {
       if (same && same->scale >= replace_from && m.score >= same->score - 0.005) *same = m;
     } else if (!same) {
@@ -148,6 +151,7 @@ void join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, do
   if (!mirrored)  // a band's own description of the part (sampled coarser than asked, ...)
     for (const std::string& w : other.warnings)
       if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end()) res.warnings.push_back(w);
+  return alone;
 }
 }  // namespace
 
@@ -166,11 +170,18 @@ void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const 
   join(res, std::move(band), S, false, f, prefix.str(), p);
 }
 
-void merge_band_above(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p, double near_top) {
+void merge_band_above(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p, double top) {
   const double f = S(0, 0);
   std::ostringstream prefix;
   prefix << "band_above_" << f << "_";
-  join(res, std::move(band), S, false, f, prefix.str(), p, false, near_top);
+  const int beyond = join(res, std::move(band), S, false, f, prefix.str(), p, false, kNearTop * top);
+  if (beyond > 0) {
+    std::ostringstream w;
+    w.precision(3);
+    w << beyond << " more instance(s) larger than scale_max (" << top << ") were found in the band above it, searched for a better fit of "
+      << "a match near that limit: not reported; search with a larger scale_max (the Wide scale preset: 3) to report them";
+    res.warnings.push_back(w.str());
+  }
 }
 
 Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f) {

@@ -70,11 +70,12 @@ Eigen::Matrix4d scaling_about(const Eigen::Vector3d& center, double f);
 void merge_scale_band(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p);
 /// The band just above instances `top` times the reference (top to top x kBandScaleMax / kBandScaleMin).
 ScaleBand band_above(double top);
-/// A match of scale `near_top` or more may be an instance larger than the range searched, its fit
-/// squeezed into the range (a rib 2.9x its reference fitted at 2.49 with stretches 2.3-2.6): the band
-/// above is searched, and its match of such an instance replaces the first one where it scores at
-/// least as well (0.005 less is noise). The band's other matches are left out: they lie beyond the
-/// range asked for.
-void merge_band_above(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p, double near_top);
+/// Matches within kNearTop of the top of the range (scale kNearTop x top or more) may be instances
+/// larger than the range searched, their fits squeezed into it (a rib 2.9x its reference fitted at
+/// 2.49 with stretches 2.3-2.6): the band above is searched, and its match of such an instance
+/// replaces the first one where it scores at least as well (0.005 less is noise). The band's other
+/// matches lie beyond the range asked for: they are not added, a warning says how many there are.
+constexpr double kNearTop = 0.95;
+void merge_band_above(Result& res, Result band, const Eigen::Matrix4d& S, const Params& p, double top);
 
 }  // namespace fe

@@ -380,6 +380,10 @@ TEST(EndToEnd, AnInstanceLargerThanTheRangeIsFittedInTheBandAboveNotSqueezedInto
     EXPECT_GT(m.score, 0.99);
   }
   EXPECT_EQ(r.params.scale_max, fe::Params{}.scale_max);  // the range asked for is what the result reports
+  // the band found the other ribs too: they are beyond the range, not reported, but said
+  const auto w = std::find_if(r.warnings.begin(), r.warnings.end(), [](const std::string& x) { return x.find("larger than scale_max") != std::string::npos; });
+  ASSERT_NE(w, r.warnings.end());
+  EXPECT_EQ(w->rfind(std::to_string(5 - r.matches.size()) + " more instance(s)", 0), 0u) << *w;
 }
 
 // A counterbored hole picked as its three faces (issue 9): on a part, a hole of another size goes

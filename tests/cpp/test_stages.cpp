@@ -519,8 +519,11 @@ TEST(MergeStage, TheBandAboveOnlyRefitsAnInstanceFoundNearTheTopOfTheRange) {
   beyond.faces = {7, 8, 9};
   beyond.score = 1.0;
   band.matches = {refit, other, beyond};
-  fe::merge_band_above(all, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 0.95 * 2.6);
+  fe::merge_band_above(all, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 2.6);
   ASSERT_EQ(all.matches.size(), 2u);
+  // the instance it alone found is not reported, but said
+  ASSERT_EQ(all.warnings.size(), 1u);
+  EXPECT_EQ(all.warnings[0].rfind("1 more instance(s) larger than scale_max (2.6)", 0), 0u) << all.warnings[0];
   for (const fe::Match& m : all.matches) {
     if (m.faces == std::vector<int>{1, 2, 3}) {
       EXPECT_NEAR(m.scale, 2.9, 1e-9);
@@ -535,8 +538,9 @@ TEST(MergeStage, TheBandAboveOnlyRefitsAnInstanceFoundNearTheTopOfTheRange) {
   again.matches = {squeezed};
   refit.score = 0.9;
   band.matches = {refit};
-  fe::merge_band_above(again, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 0.95 * 2.6);
+  fe::merge_band_above(again, band, fe::scaling_about(Eigen::Vector3d::Zero(), above.f), p, 2.6);
   ASSERT_EQ(again.matches.size(), 1u);
+  EXPECT_TRUE(again.warnings.empty());
   EXPECT_EQ(again.matches[0].score, 0.955);
 }
 
