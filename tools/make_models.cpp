@@ -452,6 +452,28 @@ void write_suite(const std::string& root, const TopoDS_Shape& b, const std::vect
     add("aniso_grid", "16 ribs stretched: width x length factors 1.0-2.5 (paper: 1.5 x 1.2)", "rib_reference", "aniso_grid",
         truth, "anisotropic");
   }
+  // a development counterpart of aniso_grid (held-out): other width x length factors, some below
+  // 1, and four tiles stretched in height too (the plate's thickness with it)
+  {
+    std::vector<Tile> spec;
+    // the first tile is the one the user-style cases take their reference from
+    const double m[][3] = {{1.2, 1.1, 1},   {0.7, 0.8, 1},   {1.8, 1.0, 1},   {2.2, 1.3, 1},
+                           {0.8, 1.6, 1},   {1.4, 2.0, 1},   {1.9, 2.4, 1},   {2.6, 2.6, 1},
+                           {1.2, 1.1, 1.6}, {1.6, 1.0, 0.7}, {1.0, 2.1, 1.4}, {2.1, 1.6, 0.8}};
+    for (int i = 0; i < 12; ++i) {
+      Tile t;
+      t.m = gp_Mat(m[i][0], 0, 0, 0, m[i][1], 0, 0, 0, m[i][2]);
+      std::ostringstream l;
+      l << "width " << m[i][0] << " x length " << m[i][1] << " x height " << m[i][2];
+      t.label = l.str();
+      t.row = i / 4;
+      spec.push_back(t);
+    }
+    auto [s, truth] = tiles(spec);
+    save("stretched_ribs", s);
+    add("stretched_ribs", "12 ribs stretched per axis: width 0.7-2.6, length 0.8-2.6, height 0.7-1.6 (development)",
+        "rib_reference", "stretched_ribs", truth, "anisotropic");
+  }
   // shear: leaning (x += k z) and skewed in plane (x += k y)
   {
     std::vector<Tile> spec;
