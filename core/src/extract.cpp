@@ -182,46 +182,56 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     const double merge_reach = std::min(ev.tolerance, 2 * ev.error * s + 0.5 * R.dense_h * s) + R.dense_h * s;
     if (cover_target(ev.mapped, mtree, reach, merge_reach, T, tmesh, p.face_coverage, inst)) found.push_back(std::move(inst));
   };
-  std::uint64_t run = 0;
+  std::uint64_t run = 0, retry_run = 0;
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
     std::vector<KeyPointPair> pairs = cluster_pairs[order[oi]];
     int failures = 0;
+    int retries_missed = 0;  // unguided retries in a row that found nothing
     // progress: clusters done, and within this one the share of its pairs explained or dropped
     const double initial_pairs = static_cast<double>(std::max<std::size_t>(1, pairs.size()));
     auto ransac_fraction = [&] {
       return (static_cast<double>(oi) + 1.0 - static_cast<double>(pairs.size()) / initial_pairs) / static_cast<double>(order.size());
     };
-    while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures && found.size() < 500) {
-      report(progress, "ransac", ransac_fraction());
-      Points rp(static_cast<Eigen::Index>(pairs.size()), 3), tp(static_cast<Eigen::Index>(pairs.size()), 3);
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(pairs[i].ref);
-        tp.row(static_cast<Eigen::Index>(i)) = T.keys.row(pairs[i].tgt);
+    // One hypothesis from a set of pairs: RANSAC, its samples guided by the pairs' local frames or
+    // not, and (guided) the best one-pair placement beside it; the better one refined and judged.
+    struct Attempt {
+      bool any = false;  // a transform within bounds was found
+      int iterations = 0;
+      Polished chosen;
+      Evidence ev;
+      std::vector<Eigen::Vector3d> sample_targets;  // target points of the pairs it came from
+    };
+    auto attempt = [&](const std::vector<KeyPointPair>& ps, bool guided) {
+      Attempt a;
+      Points rp(static_cast<Eigen::Index>(ps.size()), 3), tp(static_cast<Eigen::Index>(ps.size()), 3);
+      for (std::size_t i = 0; i < ps.size(); ++i) {
+        rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(ps[i].ref);
+        tp.row(static_cast<Eigen::Index>(i)) = T.keys.row(ps[i].tgt);
       }
       // Rotation and scale of each pair from its SHOT local frames and radius shift.
-      std::vector<Eigen::Matrix3d> rots(pairs.size());
-      for (std::size_t i = 0; i < pairs.size(); ++i) rots[i] = frames.rotation(pairs[i]);
-      std::vector<double> scales(pairs.size());
-      for (std::size_t i = 0; i < pairs.size(); ++i) scales[i] = std::pow(p.shot_radius_ratio, pairs[i].shift);
+      std::vector<Eigen::Matrix3d> rots(ps.size());
+      for (std::size_t i = 0; i < ps.size(); ++i) rots[i] = frames.rotation(ps[i]);
+      std::vector<double> scales(ps.size());
+      for (std::size_t i = 0; i < ps.size(); ++i) scales[i] = std::pow(p.shot_radius_ratio, ps[i].shift);
       RansacOptions ro;
-      ro.rotations = &rots;
+      if (guided) ro.rotations = &rots;
       ro.scales = &scales;
       ro.max_iterations = p.ransac_max_iterations;
       ro.patience = p.ransac_patience;
       ro.locality = 1.5 * L;  // times the first pair's scale estimate
       ro.ratio_min = 0.8 * p.axis_scale_min;  // slack for key points that sit a sample spacing off
       ro.ratio_max = 1.25 * p.axis_scale_max;
-      ro.seed = p.seed * 1000003ULL + (++run);
+      // the retries draw from a stream of their own, so the guided searches draw what they drew
+      // without them
+      ro.seed = guided ? p.seed * 1000003ULL + (++run) : p.seed * 1000003ULL + 500000ULL + (++retry_run);
       ro.batch = 16;  // scored on both cores, the same result as one at a time
       // The best one-pair placement competes with the RANSAC result below.
-      const Placement placement = p.pose_hypotheses ? one_pair_placement(pairs, rp, tp, scales, frames, scorer) : Placement{};
+      const Placement placement = guided && p.pose_hypotheses ? one_pair_placement(ps, rp, tp, scales, frames, scorer) : Placement{};
       // RANSAC on its own (the one-pair placements must not cut its search short)
       RansacResult rr = ransac_projective(rp, tp, cost, ro, [&] { return progress && !progress("ransac", ransac_fraction()); });
       if (progress && !progress("ransac", ransac_fraction())) throw Cancelled();
-      if (!rr.found && placement.pair < 0) {
-        if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), rr.iterations);
-        break;
-      }
+      a.iterations = rr.iterations;
+      if (!rr.found && placement.pair < 0) return a;
       // Each candidate (RANSAC's, the best one-pair placement) is refitted and refined; the better
       // refined one is judged. A placement from one pair can settle on a part of the feature that the
       // refinement cannot extend, RANSAC's fit on a worse local optimum: neither is always right.
@@ -241,24 +251,59 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         alt.sample.fill(placement.pair);
         if (!rr.found || alt.cost < 0.75 * chosen.cost) chosen = alt;  // RANSAC's fit unless clearly worse
       }
-      rr.sample = chosen.sample;
-      const Eigen::Matrix4d H = chosen.H;
-      const double s = chosen.s;
-      const Evidence ev = scorer.evaluate(H, s, debug);
-      const bool accepted = ev.accepted();
-      const double tol = ev.tolerance;
-      const Deformation& df = ev.deformation;
+      a.any = true;
+      a.chosen = chosen;
+      for (const int si : chosen.sample) a.sample_targets.push_back(tp.row(si).transpose());
+      a.ev = scorer.evaluate(chosen.H, chosen.s, debug);
       if (debug) {
-        const Eigen::Vector3d c0 = tp.row(rr.sample[0]);
-        std::fprintf(stderr, "debug: cluster %zu pairs %zu at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f obstructed %.2f partial %.2f overhang %.2f it %d -> %s%s\n",
-                     order[oi], pairs.size(), c0.x(), c0.y(), c0.z(), ev.error / L, ev.score, ev.key_agreement, df.volume_ratio, df.scale_min, df.scale_max,
-                     df.perspective, ev.obstructed, ev.partial_faces, ev.overhang, rr.iterations, accepted ? "accepted" : "rejected by ", ev.failed().c_str());
+        const Eigen::Vector3d& c0 = a.sample_targets[0];
+        const Deformation& df = a.ev.deformation;
+        std::fprintf(stderr, "debug: cluster %zu pairs %zu%s at (%.1f %.1f %.1f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f persp %.2f obstructed %.2f partial %.2f overhang %.2f it %d -> %s%s\n",
+                     order[oi], ps.size(), guided ? "" : " (unguided)", c0.x(), c0.y(), c0.z(), a.ev.error / L, a.ev.score, a.ev.key_agreement, df.volume_ratio, df.scale_min,
+                     df.scale_max, df.perspective, a.ev.obstructed, a.ev.partial_faces, a.ev.overhang, rr.iterations, a.ev.accepted() ? "accepted" : "rejected by ",
+                     a.ev.failed().c_str());
         const Eigen::Vector3d rc = 0.5 * (scorer.key_box_min() + scorer.key_box_max());
-        const Eigen::Matrix3d J = transform_jacobian(H, rc);
-        const Eigen::Vector3d m = apply_transform(H, rc);
+        const Eigen::Matrix3d J = transform_jacobian(chosen.H, rc);
+        const Eigen::Vector3d m = apply_transform(chosen.H, rc);
         std::fprintf(stderr, "   ref center -> (%.1f %.1f %.1f)  J = [%.2f %.2f %.2f; %.2f %.2f %.2f; %.2f %.2f %.2f]\n", m.x(), m.y(), m.z(),
                      J(0, 0), J(0, 1), J(0, 2), J(1, 0), J(1, 1), J(1, 2), J(2, 0), J(2, 1), J(2, 2));
       }
+      return a;
+    };
+    while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures && found.size() < 500) {
+      report(progress, "ransac", ransac_fraction());
+      Attempt a = attempt(pairs, true);
+      if (!a.any) {
+        if (debug) std::fprintf(stderr, "debug: cluster %zu pairs %zu: no transform within bounds (%d iterations)\n", order[oi], pairs.size(), a.iterations);
+        break;
+      }
+      // A rejected hypothesis is sought once more among the pairs around it, RANSAC's samples not
+      // guided by the local frames: on an instance stretched unequally along its axes (2.2 x 2.4 x 1)
+      // the SHOT frames turn (of the pairs that map right, 3 in 97 had a frame rotation within 20
+      // degrees of the instance's), so guided samples rarely hold four of them. A retry costs a
+      // guided search: after kRetryMisses in a row that found nothing (a real part's long tail of
+      // rejections), the cluster is not retried again.
+      constexpr int kRetryMisses = 3;
+      if (!a.ev.accepted() && p.ransac_unguided_retry && retries_missed < kRetryMisses) {
+        const double reach = 3.0 * L * std::max(1.0, a.chosen.s);
+        std::vector<KeyPointPair> near;
+        for (const KeyPointPair& pr : pairs)
+          if ((T.keys.row(pr.tgt).transpose() - a.sample_targets[0]).norm() <= reach) near.push_back(pr);
+        if (static_cast<int>(near.size()) >= p.min_cluster_pairs) {
+          Attempt b = attempt(near, false);
+          if (b.any && b.ev.accepted()) {
+            a = std::move(b);
+            retries_missed = 0;
+          } else {
+            ++retries_missed;
+          }
+        }
+      }
+      const Eigen::Matrix4d H = a.chosen.H;
+      const double s = a.chosen.s;
+      const Evidence& ev = a.ev;
+      const bool accepted = ev.accepted();
+      const double tol = ev.tolerance;
       // Pairs whose target point this hypothesis explains are removed either way; on rejection only
       // those around its sample, so the next search looks elsewhere.
       // An accepted hypothesis that explains no pair (the same instance found again, its pairs gone)
@@ -268,13 +313,14 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         const double reach = explained_by_map ? std::max(2 * tol, 2 * T.sparse_h) : 0.1 * L * s;
         std::vector<KeyPointPair> left;
         for (std::size_t i = 0; i < pairs.size(); ++i) {
+          const Eigen::Vector3d y = T.keys.row(pairs[i].tgt).transpose();
           bool drop = false;
           if (explained_by_map) {
             double d2;
-            mtree.nearest(T.keys.row(pairs[i].tgt).transpose(), &d2);
+            mtree.nearest(y, &d2);
             drop = std::sqrt(d2) <= reach;
           } else {
-            for (int si : rr.sample) drop = drop || (tp.row(static_cast<Eigen::Index>(i)) - tp.row(si)).norm() <= reach;
+            for (const Eigen::Vector3d& st : a.sample_targets) drop = drop || (y - st).norm() <= reach;
           }
           if (!drop) left.push_back(pairs[i]);
         }
@@ -291,7 +337,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         continue;
       }
       failures = 0;
-      add_instance(H, s, ev, mtree, chosen.rms_unrefined, static_cast<int>(explained));
+      add_instance(H, s, ev, mtree, a.chosen.rms_unrefined, static_cast<int>(explained));
     }
   }
   res.timings.push_back({"ransac", sw.lap()});
@@ -677,9 +723,11 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     };
     double top = 0;  // the largest scale the bands search
     for (const ScaleBand& band : bands) top = std::max(top, band.f * band.hi);
+    // a band whose smallest instance is larger than the part is not searched
+    auto fits_in_part = [&](const ScaleBand& band) { return reference.diagonal() * band.f * band.lo <= Lt * 1.0001; };
     for (std::size_t b = 1; b < bands.size(); ++b) {
       const ScaleBand& band = bands[b];
-      if (reference.diagonal() * band.f * band.lo > Lt * 1.0001) continue;  // instances larger than the part
+      if (!fits_in_part(band)) continue;
       const Eigen::Matrix4d S = scaling_about(c, band.f);
       try {
         merge_scale_band(out, band_pass(band), S, params);
@@ -695,8 +743,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     // searched for a better fit of it (merge_band_above).
     const double near_top = kNearTop * top;
     const ScaleBand above = band_above(top);
-    if (std::any_of(out.matches.begin(), out.matches.end(), [&](const Match& m) { return m.scale >= near_top; }) &&
-        reference.diagonal() * above.f * above.lo <= Lt * 1.0001) {
+    if (std::any_of(out.matches.begin(), out.matches.end(), [&](const Match& m) { return m.scale >= near_top; }) && fits_in_part(above)) {
       const Eigen::Matrix4d S = scaling_about(c, above.f);
       try {
         merge_band_above(out, band_pass(above), S, params, top);

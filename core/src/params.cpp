@@ -61,6 +61,7 @@ const std::vector<Entry>& entries() {
       {kRansac, "ransac_max_iterations", &Params::ransac_max_iterations, "count", "upper bound of RANSAC iterations per instance", 1, 1e7},
       {kRansac, "ransac_patience", &Params::ransac_patience, "count", "RANSAC stops after this many iterations without improvement", 1, 1e7},
       {kRansac, "pose_hypotheses", &Params::pose_hypotheses, "", "besides RANSAC's 5-pair samples, try one placement per pair (rotation from the SHOT local frames, scale from the radius shift): finds instances among many wrong pairs", 0, 1},
+      {kRansac, "ransac_unguided_retry", &Params::ransac_unguided_retry, "", "a rejected hypothesis is sought once more among the pairs around it, RANSAC's samples not guided by the pairs' local frames (which turn on an instance stretched unequally along its axes)", 0, 1},
       {kRansac, "topology_hypotheses", &Params::topology_hypotheses, "", "besides the SHOT pairs, match how the reference's faces meet (faces bounded by sharp edges, convex or concave contacts, whole faces whole) on the target's faces, and fit an affine map to the corners where the same faces meet: finds machined features (pockets, slots, steps, passages) of other proportions", 0, 1},
       {kRansac, "refine_iterations", &Params::refine_iterations, "count", "surface refinement (ICP-like) iterations after RANSAC; 0 = the paper's RANSAC result as is", 0, 1000},
       {kRansac, "max_failures", &Params::max_failures, "count", "a cluster is given up after this many rejected transforms in a row", 1, 1e4},

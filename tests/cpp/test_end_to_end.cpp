@@ -386,6 +386,61 @@ TEST(EndToEnd, AnInstanceLargerThanTheRangeIsFittedInTheBandAboveNotSqueezedInto
   EXPECT_EQ(w->rfind(std::to_string(5 - r.matches.size()) + " more instance(s)", 0), 0u) << *w;
 }
 
+// Ribs stretched unequally along their axes, the reference picked as one rib's faces (the
+// development case stretched_ribs, issue 9: width 0.7-2.6, length 0.8-2.6, height 0.7-1.6 times, the
+// reference rib 1.2 x 1.1 x 1), on the part stretched 1.5 times along x as well (the harness's
+// stretched variant). There the SHOT frames turn: on the 2.6 x 2.6 x 1 rib, of the pairs that map
+// right, 3 of 97 had a frame rotation within 20 degrees of the rib's, so RANSAC's samples, guided by
+// the first pair's frame, rarely hold four of them (its best fit there was a shear, error 0.1 L). A
+// rejected hypothesis is sought again around it without that guidance (ransac_unguided_retry).
+// Whether a retry lands is a matter of its draws, so three seeds are summed: in the development runs
+// (seeds 2-6) the stretched part gave 46 of 60 without the retry and 57 with it.
+TEST(EndToEnd, RibsStretchedUnequallyAlongTheirAxesAreFoundFromPickedFaces) {
+  std::ifstream in(models() + "/suite/suite.json");
+  ASSERT_TRUE(in.good());
+  const nlohmann::json suite = nlohmann::json::parse(in);
+  nlohmann::json instances;
+  for (const auto& c : suite["cases"])
+    if (c["name"] == "stretched_ribs") instances = c["instances"];
+  ASSERT_EQ(instances.size(), 12u);
+  const fe::TriangleMesh whole = fe::read_shape(models() + "/suite/stretched_ribs.step");
+  std::vector<char> drop(static_cast<std::size_t>(whole.triangles.rows()), 1);
+  for (Eigen::Index t = 0; t < whole.triangles.rows(); ++t)
+    for (const auto& f : instances[0]["faces"])
+      if (whole.face_ids(t) == f.get<int>()) drop[static_cast<std::size_t>(t)] = 0;
+  const fe::TriangleMesh ref = fe::without_triangles(whole, drop);
+  fe::TriangleMesh tgt = fe::read_shape(models() + "/suite/stretched_ribs.step", fe::tessellation_for_feature(ref.diagonal()));
+  tgt.vertices.col(0) *= 1.5;
+  // instances found (a match centered on its box, x stretched) and matches on no instance
+  auto count = [&](const fe::Result& r, int* found, int* false_matches) {
+    std::vector<char> hit(instances.size(), 0);
+    for (const fe::Match& m : r.matches) {
+      expect_sane(m);
+      bool on = false;
+      for (std::size_t k = 0; k < instances.size() && !on; ++k) {
+        const auto& b = instances[k]["box"];
+        if (!hit[k] && m.center.x() >= 1.5 * b[0][0].get<double>() - 1 && m.center.x() <= 1.5 * b[1][0].get<double>() + 1 &&
+            m.center.y() >= b[0][1].get<double>() - 1 && m.center.y() <= b[1][1].get<double>() + 1)
+          hit[k] = 1, on = true;
+      }
+      *false_matches += on ? 0 : 1;
+    }
+    *found += static_cast<int>(std::count(hit.begin(), hit.end(), 1));
+  };
+  int with = 0, without = 0, false_with = 0, false_without = 0;
+  for (const std::uint64_t seed : {1, 2, 3}) {
+    fe::Params p;
+    p.seed = seed;
+    count(fe::extract(ref, tgt, p), &with, &false_with);
+    p.ransac_unguided_retry = false;
+    count(fe::extract(ref, tgt, p), &without, &false_without);
+  }
+  std::printf("stretched ribs, 3 seeds: %d of 36 found with the retry (%d false), %d without (%d false)\n", with, false_with, without, false_without);
+  EXPECT_GE(with, without + 3);
+  EXPECT_GE(with, 30);
+  EXPECT_EQ(false_with, 0);
+}
+
 // A counterbored hole picked as its three faces (issue 9): on a part, a hole of another size goes
 // through the same wall, so its cylinder below the counterbore is not scaled with it. The reference
 // (R4, counterbore R7 5 deep, in a 24 mm plate) mapped at 2x onto the R8 hole runs on 24 mm below

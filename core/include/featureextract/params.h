@@ -50,6 +50,7 @@ struct Params {
   int ransac_max_iterations = 4000;  ///< upper bound of iterations per instance search
   int ransac_patience = 600;         ///< stop after this many iterations without improvement
   bool pose_hypotheses = true;       ///< also try one placement per pair (rotation from local frames, scale from SHOT) against RANSAC's
+  bool ransac_unguided_retry = true;  ///< a rejected hypothesis is sought again around it with RANSAC samples not guided by the local frames
   bool topology_hypotheses = true;   ///< also try affine maps from matching how the reference's faces meet (issue 9: machined features)
   int refine_iterations = 30;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
