@@ -208,9 +208,12 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(ps[i].ref);
         tp.row(static_cast<Eigen::Index>(i)) = T.keys.row(ps[i].tgt);
       }
-      // Rotation and scale of each pair from its SHOT local frames and radius shift.
-      std::vector<Eigen::Matrix3d> rots(ps.size());
-      for (std::size_t i = 0; i < ps.size(); ++i) rots[i] = frames.rotation(ps[i]);
+      // Rotation (guided samples only) and scale of each pair from its SHOT local frames and radius shift.
+      std::vector<Eigen::Matrix3d> rots;
+      if (guided) {
+        rots.resize(ps.size());
+        for (std::size_t i = 0; i < ps.size(); ++i) rots[i] = frames.rotation(ps[i]);
+      }
       std::vector<double> scales(ps.size());
       for (std::size_t i = 0; i < ps.size(); ++i) scales[i] = std::pow(p.shot_radius_ratio, ps[i].shift);
       RansacOptions ro;
