@@ -21,7 +21,14 @@ TimeoutError). Bad input raises fx.InputError (a ValueError) naming the file. ST
 read in a child process, so a file that crashes OpenCASCADE raises InputError instead of killing the
 interpreter (or FreeCAD).
 """
-from ._core import (Cancelled, Description, FeatureModel, FeMesh, InputError, Match, Mesh, Params, PreparedTarget,  # noqa: F401
+import os as _os
+
+# OpenMP threads that wait spin by default and slow every search down when another program is busy
+# on the machine (core/cli/main.cpp has the numbers); libgomp reads the policy once, when it is loaded
+# (here, unless the process loaded it before: then this does nothing).
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+from ._core import (Cancelled, Description, FeatureModel, FeMesh, InputError, Match, Mesh, Params, PreparedTarget,  # noqa: E402,F401
                     Result, ShapeStats, TimeLimitError, TransferredMesh, describe, element_quality, extract as _extract, param_table,
                     read_brep_string, read_feature, read_fe_mesh, read_shape, tessellation_for_feature, transfer_mesh,
                     write_inp, write_msh)

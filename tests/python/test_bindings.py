@@ -71,6 +71,20 @@ def test_integer_parameters_out_of_range_are_refused():
             fx.Params.from_json('{"%s": %r}' % (name, value))
 
 
+def test_importing_the_package_makes_waiting_threads_sleep():
+    # OpenMP's spinning waits slow searches down when the machine is busy; the package asks for the
+    # passive policy before the core (and libgomp) is loaded, and keeps a policy the caller chose
+    import subprocess
+    import sys
+    code = "import os, featureextract; print(os.environ.get('OMP_WAIT_POLICY'))"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "PASSIVE"
+    out = subprocess.run([sys.executable, "-c", code], env=dict(env, OMP_WAIT_POLICY="ACTIVE"), capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "ACTIVE"
+
+
 def test_result_does_not_depend_on_thread_count(ref, tgt):
     one = fx.extract(ref, tgt, fx.make_params(seed=3, threads=1))
     two = fx.extract(ref, tgt, fx.make_params(seed=3, threads=2))
