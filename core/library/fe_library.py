@@ -130,10 +130,25 @@ def library_hash(feats):
     return hashlib.sha256("".join(f["hash"] for f in feats).encode()).hexdigest()
 
 
+LIBRARY_SIZE_LADDER = 3
+
+
+def size_class(diagonal, ladder=LIBRARY_SIZE_LADDER):
+    """The doubling a feature's size falls in, after the size ladder's rounding (features on one
+    rung of the ladder fall in the same class, so they share one tessellation and its descriptions)."""
+    import math
+    d = max(diagonal, 1e-9)
+    if ladder > 0:
+        return math.floor(round(math.log2(d) * ladder) / ladder + 1e-9)
+    return math.floor(math.log2(d))
+
+
 def search_params(fxm, feature, overrides):
     """A feature's search parameters: the engine's defaults, the feature's own (feature.json
-    "search": scale_min, scale_max, params), then the caller's."""
-    values = {}
+    "search": scale_min, scale_max, params), then the caller's. The library search rounds feature
+    sizes to a ladder of 3 per doubling (size_ladder, the SHOT radius step), so that features of
+    nearby sizes share the part's descriptions; a feature or the caller may set it (0 = exact)."""
+    values = {"size_ladder": LIBRARY_SIZE_LADDER}
     s = feature["search"]
     for k in ("scale_min", "scale_max"):
         if k in s:
@@ -324,14 +339,21 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
     current = {"key": None, "target": None}
     made = {"tessellations": 0, "descriptions": 0}
 
+    # the size ladder each feature is searched with (search_params: the library's, or the feature's or
+    # caller's own): features on one rung share a size class, so one tessellation and its descriptions
+    ladders = {id(refs[i]): int(search_params(fxm, feats[i], overrides).size_ladder) for i in range(len(feats))}
+
     def prepared_for(ref):
-        k = math.floor(math.log2(max(ref.diagonal, 1e-9)))
+        ladder = ladders[id(ref)]
+        k = size_class(ref.diagonal, ladder)
         if current["key"] != k:  # a new size class: the last one's descriptions are let go (memory)
             if current["target"] is not None:
                 made["descriptions"] += current["target"].descriptions_built
             rel, _ = fxm.tessellation_for_feature(ref.diagonal)
+            # as fine as the class's smallest feature needs (a rung rounds sizes up to 2^(1/(2 ladder)))
+            smallest = 2.0 ** k / (2.0 ** (0.5 / ladder) if ladder > 0 else 1.0)
             try:
-                mesh = fxm.read_shape(target, relative_deflection=rel, absolute_deflection=rel * 2.0 ** k)
+                mesh = fxm.read_shape(target, relative_deflection=rel, absolute_deflection=rel * smallest)
             except ValueError as e:
                 raise UserError(str(e))
             current["key"], current["target"] = k, fxm.PreparedTarget(mesh)

@@ -632,7 +632,12 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
   }
   // One pass: the reference (scaled by a scale band's f, merge.h) and its mirror image.
   auto pass = [&](const TriangleMesh& ref, const FeatureCore& core, const Params& asked) {
-    const double L = ref.diagonal() * size_ratio;
+    // With a size ladder, L is rounded to the ladder's nearest size: features of nearby sizes then ask
+    // for the same target description (PreparedTarget, the library search), each described and judged
+    // at that size (at most 2^(1/6), 12 %, off its own with 3 steps per doubling).
+    double L = ref.diagonal() * size_ratio;
+    if (asked.size_ladder > 0 && L > 0)
+      L = std::exp2(std::round(std::log2(L) * asked.size_ladder) / static_cast<double>(asked.size_ladder));
     // A part too large for the dense spacing (max_dense_points) is sampled coarser, and the reference is
     // then described with the same coarser spacings and radii: sampling only the target coarser left
     // its normals a sample or two each and its descriptors unlike the reference's (development case

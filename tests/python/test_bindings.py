@@ -214,6 +214,19 @@ def test_prepared_target_reuses_its_descriptors(ref, tgt):
     assert prepared.descriptions_built == 2
 
 
+def test_features_of_nearby_sizes_share_descriptions_on_the_size_ladder(ref, tgt):
+    # the rib and a copy 5 % larger round to one size of the ladder (3 per doubling): one target
+    # description for both, where each size has its own without the ladder; each finds the 5 ribs
+    v = ref.vertices
+    c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+    larger = fx.Mesh(c + 1.05 * (v - c), ref.triangles, ref.face_ids, name="rib 1.05x")
+    for ladder, descriptions in ((3, 1), (0, 2)):
+        prepared = fx.PreparedTarget(tgt)
+        found = [len(fx.extract(r, prepared, size_ladder=ladder).matches) for r in (ref, larger)]
+        assert prepared.descriptions_built == descriptions
+        assert found == [5, 5], (ladder, found)
+
+
 def test_feature_folder_and_mesh_transfer(tmp_path):
     """Issue 5 from Python: a feature folder, its mesh placed on every boss, written as .inp and .msh."""
     features = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "Resources", "library")

@@ -19,6 +19,7 @@ struct Params {
   double dense_spacing = 0.014;  ///< spacing of the dense samples (support of descriptors, validation)
   double sparse_spacing = 0.035; ///< spacing of the sparse samples (candidate key points)
   std::size_t max_dense_points = 2000000;  ///< cap; beyond it reference and target are both described coarser (with a warning)
+  int size_ladder = 0;  ///< if > 0, L is rounded to the nearest size 2^(k / size_ladder), so that features of nearby sizes share the target's descriptions (the library search: 3, the SHOT radius ladder's step); 0 = L exactly
 
   // --- step 2: descriptors (x L unless said otherwise)
   double normal_radius = 0.035;     ///< PCA normal support radius
