@@ -40,7 +40,7 @@ const std::vector<Entry>& entries() {
       {kSampling, "dense_spacing", &Params::dense_spacing, "x L", "spacing of dense samples (descriptor support, validation)", 1e-4, 0.2},
       {kSampling, "sparse_spacing", &Params::sparse_spacing, "x L", "spacing of sparse samples (candidate key points)", 1e-4, 0.5},
       {kSampling, "max_dense_points", &Params::max_dense_points, "count", "cap on the target's dense samples; beyond it both shapes are described coarser (spacings and normal and curvature radii alike), with a warning", 1000, 5e7},
-      {kSampling, "size_ladder", &Params::size_ladder, "steps per doubling", "if > 0, the feature size L (every x L above and below) is rounded to the nearest of this many sizes per doubling, so that features of nearby sizes share the target's descriptions (at most 12 % off L with 3; `search --library` uses 3); 0 = L exactly", 0, 64},
+      {kSampling, "size_ladder", &Params::size_ladder, "steps per 2x", "if > 0, the feature size L (every x L above and below) is rounded to the nearest of this many sizes per doubling, so that features of nearby sizes share the target's descriptions (at most 12 % off L with 3; `search --library` uses 3); 0 = L exactly", 0, 64},
       {kSampling, "normal_radius", &Params::normal_radius, "x L", "support radius of PCA normals", 1e-4, 0.5},
       {kDescriptors, "curvature_radius", &Params::curvature_radius, "x L", "support radius of the quadric fit for principal curvatures", 1e-4, 0.5},
       {kDescriptors, "planar_curvedness", &Params::planar_curvedness, "1/L", "curvedness x L below which a point is planar (shape index -1)", 0, 1e6},
