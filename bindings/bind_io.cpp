@@ -37,6 +37,8 @@ void bind_io(py::module_& m) {
       "Tessellate a B-rep from Part.Shape.exportBrepToString() (in a child process, like read_shape); faces keep "
       "FreeCAD's FaceN numbering.");
 
+  m.def("size_on_ladder", &fe::size_on_ladder, py::arg("L"), py::arg("steps"),
+        "The feature size the search uses: L itself with steps 0, else the nearest 2^(k / steps) (Params.size_ladder).");
   m.def("tessellation_for_feature", [](double L) {
     const auto o = fe::tessellation_for_feature(L);
     return py::make_tuple(o.relative_deflection, o.absolute_deflection);

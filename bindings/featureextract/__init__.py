@@ -30,7 +30,7 @@ _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 from ._core import (Cancelled, Description, FeatureModel, FeMesh, InputError, Match, Mesh, Params, PreparedTarget,  # noqa: E402,F401
                     Result, ShapeStats, TimeLimitError, TransferredMesh, describe, element_quality, extract as _extract, param_table,
-                    read_brep_string, read_feature, read_fe_mesh, read_shape, tessellation_for_feature, transfer_mesh,
+                    read_brep_string, read_feature, read_fe_mesh, read_shape, size_on_ladder, tessellation_for_feature, transfer_mesh,
                     write_inp, write_msh)
 
 __all__ = ["Cancelled", "Description", "describe", "element_quality", "FeatureModel", "FeMesh", "InputError", "Match", "Mesh",

@@ -133,14 +133,11 @@ def library_hash(feats):
 LIBRARY_SIZE_LADDER = 3
 
 
-def size_class(diagonal, ladder=LIBRARY_SIZE_LADDER):
-    """The doubling a feature's size falls in, after the size ladder's rounding (features on one
-    rung of the ladder fall in the same class, so they share one tessellation and its descriptions)."""
+def size_class(fxm, diagonal, ladder=LIBRARY_SIZE_LADDER):
+    """The doubling a feature's size falls in, after the engine's rounding to the size ladder (features
+    on one rung fall in the same class, so they share one tessellation and its descriptions)."""
     import math
-    d = max(diagonal, 1e-9)
-    if ladder > 0:
-        return math.floor(round(math.log2(d) * ladder) / ladder + 1e-9)
-    return math.floor(math.log2(d))
+    return math.floor(math.log2(fxm.size_on_ladder(max(diagonal, 1e-9), ladder)) + 1e-9)
 
 
 def search_params(fxm, feature, overrides):
@@ -339,13 +336,13 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
     current = {"key": None, "target": None}
     made = {"tessellations": 0, "descriptions": 0}
 
-    # the size ladder each feature is searched with (search_params: the library's, or the feature's or
-    # caller's own): features on one rung share a size class, so one tessellation and its descriptions
-    ladders = {id(refs[i]): int(search_params(fxm, feats[i], overrides).size_ladder) for i in range(len(feats))}
+    # each feature's parameters (the library's size ladder, or the feature's or caller's own): features
+    # on one rung share a size class, so one tessellation and its descriptions
+    params = [search_params(fxm, f, overrides) for f in feats]
 
-    def prepared_for(ref):
-        ladder = ladders[id(ref)]
-        k = size_class(ref.diagonal, ladder)
+    def prepared_for(i):
+        ref, ladder = refs[i], int(params[i].size_ladder)
+        k = size_class(fxm, ref.diagonal, ladder)
         if current["key"] != k:  # a new size class: the last one's descriptions are let go (memory)
             if current["target"] is not None:
                 made["descriptions"] += current["target"].descriptions_built
@@ -360,7 +357,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
             made["tessellations"] += 1
         return current["target"]
     order = sorted(range(len(feats)), key=lambda i: -refs[i].diagonal)  # the coarsest tessellation first
-    first = prepared_for(refs[order[0]]).mesh
+    first = prepared_for(order[0]).mesh
     out = {"target": {"path": os.path.abspath(target), "faces": int(first.num_faces), "triangles": int(first.triangles.shape[0])},
            "library": {"path": os.path.abspath(library), "hash": library_hash(feats), "features": len(feats)},
            "features": [], "overlaps": []}
@@ -373,13 +370,13 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
                  "matches": [], "error": None}
         t1 = time.monotonic()
         try:
-            p = search_params(fxm, f, overrides)
+            p = params[i]
             if time_limit:
                 left = time_limit - (time.monotonic() - t0)
                 if left <= 0:
                     raise fxm.TimeLimitError(f"{target}: time limit of {time_limit:g} s reached before {f['name']}")
                 p.time_limit = left
-            res = json.loads(prepared_for(ref).extract(ref, p, (lambda stage, fr, n=n, name=f["name"]: progress(n, len(feats), name, stage, fr))
+            res = json.loads(prepared_for(i).extract(ref, p, (lambda stage, fr, n=n, name=f["name"]: progress(n, len(feats), name, stage, fr))
                                                        if progress else None).to_json())
             entry["matches"] = res.get("matches", [])
             entry["params"] = res.get("params")

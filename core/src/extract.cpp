@@ -635,9 +635,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     // With a size ladder, L is rounded to the ladder's nearest size: features of nearby sizes then ask
     // for the same target description (PreparedTarget, the library search), each described and judged
     // at that size (at most 2^(1/6), 12 %, off its own with 3 steps per doubling).
-    double L = ref.diagonal() * size_ratio;
-    if (asked.size_ladder > 0 && L > 0)
-      L = std::exp2(std::round(std::log2(L) * asked.size_ladder) / static_cast<double>(asked.size_ladder));
+    const double L = size_on_ladder(ref.diagonal() * size_ratio, asked.size_ladder);
     // A part too large for the dense spacing (max_dense_points) is sampled coarser, and the reference is
     // then described with the same coarser spacings and radii: sampling only the target coarser left
     // its normals a sample or two each and its descriptors unlike the reference's (development case
@@ -851,6 +849,11 @@ std::shared_ptr<const ShapeDescription> describe_target(const TriangleMesh& targ
   return std::make_shared<const ShapeDescription>(describe(target, ShapeDescription::Role::Target, L, params, progress));
 }
 }  // namespace
+
+double size_on_ladder(double L, int steps) {
+  if (steps <= 0 || !(L > 0)) return L;
+  return std::exp2(std::round(std::log2(L) * steps) / static_cast<double>(steps));
+}
 
 PreparedTarget::PreparedTarget(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
 

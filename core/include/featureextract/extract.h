@@ -77,6 +77,10 @@ class PreparedTarget {
   int built_ = 0;
 };
 
+/// The feature size L as the search uses it: L itself if `steps` is 0, else the nearest size
+/// 2^(k / steps) (Params::size_ladder), so that features of nearby sizes share target descriptions.
+double size_on_ladder(double L, int steps);
+
 /// All six steps. Throws InputError for bad input (message names the shape), Cancelled.
 /// Instances scale_min to scale_max times the reference are searched; one pass covers 0.8-2.6, and a
 /// wider range (1/3-3, issue 9) is searched in scale bands: one more pass per band, with the
