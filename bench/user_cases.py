@@ -660,6 +660,7 @@ def main():
     ap.add_argument("--evidence", action="store_true", help="add each match's acceptance evidence, labelled true or false, to the rows")
     ap.add_argument("--markdown", nargs="+", metavar="JSON", help="print the tables of earlier runs' JSON rows and exit")
     ap.add_argument("--rescore", nargs=2, metavar=("WORK", "JSON"), help="score the rows of an earlier --work run again from the results kept in WORK (the current truth and range counts), write them to --out and print the tables")
+    ap.add_argument("--trace", action="store_true", help="run the engine with FE_DEBUG=1 and keep each run's trace beside its result in --work (NAME.log)")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter (for experiments only: results are reported with the defaults)")
     a = ap.parse_args()
     if a.rescore:
@@ -703,7 +704,11 @@ def main():
                 t0 = time.monotonic()
                 try:
                     p = subprocess.run([exe, "extract", "--reference", ref, "--target", tgt, "--output", out, "--quiet", *[x for kv in a.set for x in ("--set", kv)]],
-                                       capture_output=True, text=True, timeout=a.timeout)
+                                       capture_output=True, text=True, timeout=a.timeout,
+                                       env=dict(os.environ, FE_DEBUG="1") if a.trace else None)
+                    if a.trace and a.work:
+                        with open(out[:-5] + ".log", "w") as lf:
+                            lf.write(p.stderr)
                 except subprocess.TimeoutExpired:  # a row that found nothing in time, not the end of the run
                     p = subprocess.CompletedProcess([], 124, "", f"timed out after {a.timeout:g} s")
                 sec = time.monotonic() - t0
