@@ -367,7 +367,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
         if progress:
             progress(n, len(feats), f["name"])
         entry = {"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "rules": rule_text(f["spec"]),
-                 "matches": [], "error": None}
+                 "matches": [], "error": None, "warnings": []}
         t1 = time.monotonic()
         try:
             p = params[i]
@@ -379,7 +379,8 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
             res = json.loads(prepared_for(i).extract(ref, p, (lambda stage, fr, n=n, name=f["name"]: progress(n, len(feats), name, stage, fr))
                                                        if progress else None).to_json())
             entry["matches"] = res.get("matches", [])
-            entry["params"] = res.get("params")
+            entry["params"] = res.get("parameters")  # as used: the feature's, the ladder's and the caller's
+            entry["warnings"] = res.get("warnings", [])  # e.g. a box's cut faces left out, the ridge-and-rut fallback
         except fxm.TimeLimitError:
             raise
         except ValueError as e:  # InputError: this feature cannot be searched; the others go on
@@ -458,6 +459,8 @@ def search_cmd(a):
         for f in res["features"]:
             print(f"{PROG} search: {f['name']}: {len(f['matches'])} found" + (f" (not searched: {f['error']})" if f["error"] else ""),
                   file=sys.stderr)
+            for w in f["warnings"]:
+                print(f"{PROG} search: {f['name']}: warning: {w}", file=sys.stderr)
         print(f"{PROG} search: {found} instances of {len(res['features'])} features on {os.path.basename(a.target)}, "
               f"{len(res['overlaps'])} overlaps, {res['seconds']:.1f} s -> {a.output}", file=sys.stderr)
     return 0 if len(errs) < len(res["features"]) else EXIT_INPUT

@@ -48,6 +48,10 @@ class Library(unittest.TestCase):
         self.assertTrue(all(f["error"] is None for f in self.plate["features"]))
         self.assertEqual(self.plate["overlaps"], [])  # ribs and bosses share no faces
         self.assertGreater(self.plate["target"]["faces"], 10)
+        for f in self.plate["features"]:  # the parameters each was searched with, and its warnings
+            self.assertEqual(f["params"]["size_ladder"], 3, f["name"])
+            self.assertEqual(f["params"]["seed"], 1, f["name"])
+            self.assertIsInstance(f["warnings"], list)
 
     def test_two_features_on_the_same_faces_are_reported_and_ranked(self):
         lib = os.path.join(self.dir, "twice")
