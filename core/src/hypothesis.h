@@ -8,6 +8,7 @@
 #include "featureextract/clearance.h"
 #include "featureextract/geometry.h"
 #include "featureextract/reference.h"
+#include "symmetry.h"
 
 #include <Eigen/Core>
 #include <cmath>
@@ -17,6 +18,10 @@
 #include <vector>
 
 namespace fe {
+
+/// How far apart H's largest and smallest stretch may be for an axisymmetric reference's key points
+/// to agree at any turn about its axis (HypothesisScorer::key_agrees): nearly a similarity.
+constexpr double kTurnRoundness = 1.2;
 
 /// The part of a box-cut reference that is feature (issue 9): a user's box takes some of the part
 /// around the feature too, and that context need not be the same around every instance (FTC-10's
@@ -127,6 +132,12 @@ class HypothesisScorer {
   /// Per reference dense sample: on a face that reaches the border (overhangs() may apply).
   bool open_dense(Eigen::Index i) const { return !open_dense_.empty() && open_dense_[static_cast<std::size_t>(i)]; }
 
+  /// The reference's axis of revolution, when its core is a surface of revolution (symmetry.h).
+  const Symmetry& symmetry() const { return sym_; }
+  /// An axisymmetric reference and H nearly a similarity: its stretches at the middle of the key
+  /// points within kTurnRoundness of each other (key_agrees may then turn key points).
+  bool turns_freely(const Eigen::Matrix4d& H) const;
+
   double normal_penalty() const { return normal_penalty_; }
   const std::vector<Eigen::Index>& core_keys() const { return core_keys_; }
   const std::vector<Eigen::Index>& core_dense() const { return core_dense_; }
@@ -194,6 +205,11 @@ class HypothesisScorer {
   Points through_ends_, through_outward_;
   std::vector<Eigen::Index> through_rows_;  // dense rows that cover a target face (stride subset of the core)
   std::unique_ptr<KdTree3> tkey_tree_;
+  Symmetry sym_;
+  /// Key point agreement of reference key point i under H: a target key point of a similar shape
+  /// index lies within `reach` of where H puts it or, with `turns` (turns_freely(H)), of where H puts
+  /// any turn of it about the reference's axis (s: H's scale).
+  bool key_agrees(const Eigen::Matrix4d& H, Eigen::Index i, double reach, double s, bool turns, std::vector<int>& near, std::vector<float>& d2) const;
 };
 
 }  // namespace fe

@@ -26,7 +26,7 @@ SurfaceRefinement::SurfaceRefinement(const ShapeDescription::Impl& R, const Shap
   if (scorer.whole_faces().reference)
     for (const Eigen::Index i : rows) face_.push_back(R.dense.face_ids(i));
   cell_ = R.dense_h * R.dense_h * static_cast<double>(scorer.core_dense().size()) / static_cast<double>(std::max<Eigen::Index>(1, pts_.rows()));
-  sym_ = detect_axisymmetry(pts_, nrm_, L_);
+  sym_ = scorer.symmetry();  // detected on these samples (hypothesis.cpp)
   if (sym_.axisymmetric) {
     // Border samples: where another face begins, or where the surface ends (the tangential centroid
     // of the neighbours leaves the sample: half a disc puts it 0.42 r off, a whole one at 0).

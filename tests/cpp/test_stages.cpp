@@ -343,6 +343,58 @@ TEST_F(SelfMatch, TheRefinementPullsAMovedFitBackOntoTheSurface) {
   EXPECT_TRUE(scorer.evaluate(out.H, out.s).accepted());
 }
 
+// The key points of a surface of revolution sit on its rims where the tessellation put them; on an
+// instance at other turns (twenty-fourth session: counterbore_bosses' holes, box-cut at ref0.7,
+// fitted to 0.000 L, score 0.99, not one key point agreeing). A counterbored hole on itself, turned
+// about its axis: the surface and the key points agree at every turn.
+TEST(HypothesisStage, KeyPointsOfASurfaceOfRevolutionAgreeAtAnyTurn) {
+  const fe::TriangleMesh mesh = fe::read_shape(models() + "/counterbore_reference.brep");
+  fe::Params p;
+  p.ridge_rut_spacing = 0.3;  // a few key points on its rims, one per cube of 0.3 L
+  const double L = mesh.diagonal();
+  const fe::ShapeDescription ref = fe::describe(mesh, fe::ShapeDescription::Role::Reference, L, p);
+  const fe::ShapeDescription tgt = fe::describe(mesh, fe::ShapeDescription::Role::Target, L, p);
+  const fe::HypothesisScorer scorer(ref.impl(), tgt.impl(), p, fe::FeatureCore{});
+  ASSERT_TRUE(scorer.symmetry().axisymmetric);
+  const fe::KdTree3 tkeys(tgt.key_points());
+  const double reach = p.accept_error * L + tgt.impl().sparse_h;
+  for (const double theta : {0.0, 0.37, 1.9, 4.0}) {
+    const Eigen::Matrix4d H = fe::spin(Eigen::Matrix4d::Identity(), scorer.symmetry(), theta);
+    int near = 0;  // key points the turn leaves near a target key point
+    for (Eigen::Index i = 0; i < ref.key_points().rows(); ++i) {
+      double d2;
+      tkeys.nearest(fe::apply_transform(H, ref.key_points().row(i).transpose()), &d2);
+      near += std::sqrt(d2) <= reach ? 1 : 0;
+    }
+    const fe::Evidence ev = scorer.evaluate(H, 1.0);
+    EXPECT_GT(ev.score, 0.9) << theta;  // the surface lies on itself at any turn
+    EXPECT_GT(ev.key_agreement, 0.9) << theta << ": " << near << " of " << ref.key_points().rows() << " key points land near one as turned";
+    if (theta == 1.9) EXPECT_LT(near, ref.key_points().rows() / 2);  // the turn does move them off
+  }
+  // A stretched map is judged where it puts the key points: across the axis one way (the circles
+  // flattened into ellipses), or along it (a larger hole, shallower for its radius).
+  const Eigen::Vector3d ax = scorer.symmetry().axis.normalized(), across = ax.unitOrthogonal();
+  const Eigen::Matrix3d flatten = Eigen::Matrix3d::Identity() + 0.5 * across * across.transpose();  // 1.5x across the axis, one way
+  Eigen::Matrix4d F = Eigen::Matrix4d::Identity();
+  F.topLeftCorner<3, 3>() = flatten;
+  F.topRightCorner<3, 1>() = scorer.symmetry().point - flatten * scorer.symmetry().point;
+  EXPECT_TRUE(scorer.turns_freely(fe::spin(Eigen::Matrix4d::Identity(), scorer.symmetry(), 1.9)));
+  EXPECT_FALSE(scorer.turns_freely(F));
+  Eigen::Matrix4d G = Eigen::Matrix4d::Identity();
+  G.topLeftCorner<3, 3>() = 2.0 * Eigen::Matrix3d::Identity() - 1.2 * ax * ax.transpose();  // 2x across, 0.8x along
+  EXPECT_FALSE(scorer.turns_freely(G));
+  G.topLeftCorner<3, 3>() = 2.0 * Eigen::Matrix3d::Identity();  // 2x every way: a larger instance
+  EXPECT_TRUE(scorer.turns_freely(G));
+}
+
+// ... and the key points of a shape that is not one disagree once it is turned.
+TEST_F(SelfMatch, TurnedKeyPointsOfAShapeThatIsNotOfRevolutionDisagree) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  ASSERT_FALSE(scorer.symmetry().axisymmetric);
+  EXPECT_GT(scorer.evaluate(Eigen::Matrix4d::Identity(), 1.0).key_agreement, 0.95);
+  EXPECT_LT(scorer.evaluate(moved(Eigen::Vector3d::Zero(), 0.6), 1.0).key_agreement, 0.5);
+}
+
 TEST_F(SelfMatch, TheTrueTransformCoversEveryFace) {
   const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
   const fe::Evidence ev = scorer.evaluate(Eigen::Matrix4d::Identity(), 1.0);
