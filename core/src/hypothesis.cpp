@@ -604,12 +604,18 @@ double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
   return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size() - (skip ? no : 0))));
 }
 
+namespace {
+// The point of the axis of revolution nearest x.
+Eigen::Vector3d foot_on_axis(const Symmetry& sym, const Eigen::Vector3d& x) {
+  const Eigen::Vector3d a = sym.axis.normalized();
+  return sym.point + a.dot(x - sym.point) * a;
+}
+}  // namespace
+
 bool HypothesisScorer::turns_freely(const Eigen::Matrix4d& H) const {
   if (!sym_.axisymmetric) return false;
   // H's stretches on the axis, at the middle of the reference's key points
-  const Eigen::Vector3d a = sym_.axis.normalized();
-  const Eigen::Vector3d mid = 0.5 * (rlo_ + rhi_);
-  const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3d>(transform_jacobian(H, sym_.point + a.dot(mid - sym_.point) * a)).singularValues();
+  const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3d>(transform_jacobian(H, foot_on_axis(sym_, 0.5 * (rlo_ + rhi_)))).singularValues();
   return sv(2) > 0 && sv(0) <= kTurnRoundness * sv(2);
 }
 
@@ -633,12 +639,11 @@ bool HypothesisScorer::key_agrees(const Eigen::Matrix4d& H, Eigen::Index i, doub
   // there they still tell a stretched fit from a true one (FTC-10's drilled hole laid on larger round
   // features, 2.9x across its axis and 1.1x along it: 0.85 of its key points agreed at some turn,
   // two false matches, where a bound on the roundness across the axis alone let them through).
-  const Eigen::Vector3d a = sym_.axis.normalized();
-  const Eigen::Vector3d c = sym_.point + a.dot(x - sym_.point) * a;
+  const Eigen::Vector3d c = foot_on_axis(sym_, x);
   const Eigen::Vector3d u = x - c;
   const double r = u.norm();
   if (!(r * s > 0.5 * reach)) return false;  // on the axis: every turn is the same point
-  const Eigen::Vector3d v = a.cross(u);
+  const Eigen::Vector3d v = sym_.axis.normalized().cross(u);
   const int steps = static_cast<int>(std::min(360.0, std::ceil(2 * M_PI * r * s / reach)));
   for (int k = 1; k < steps; ++k) {
     const double t = 2 * M_PI * k / steps;
