@@ -229,10 +229,12 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       ro.seed = guided ? p.seed * 1000003ULL + (++run) : p.seed * 1000003ULL + 500000ULL + (++retry_run);
       ro.batch = 16;  // scored on both cores, the same result as one at a time
       // The best one-pair placement competes with the RANSAC result below.
+      Stopwatch at;  // (for the trace)
       const Placement placement = guided && p.pose_hypotheses ? one_pair_placement(ps, rp, tp, scales, frames, scorer) : Placement{};
       // RANSAC on its own (the one-pair placements must not cut its search short)
       RansacResult rr = ransac_projective(rp, tp, cost, ro, [&] { return progress && !progress("ransac", ransac_fraction()); });
       if (progress && !progress("ransac", ransac_fraction())) throw Cancelled();
+      const double t_search = at.lap();
       a.iterations = rr.iterations;
       if (!rr.found && placement.pair < 0) return a;
       // Each candidate (RANSAC's, the best one-pair placement) is refitted and refined; the better
@@ -250,9 +252,11 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
         alt = refinement.polish(placement.H, placement.cost, rp, tp);
       }
       if (rr.found) chosen.sample = rr.sample;
+      const double polished_rr = rr.found ? chosen.cost : INFINITY, t_polish = at.lap();
+      bool placed = false;
       if (placement.pair >= 0) {
         alt.sample.fill(placement.pair);
-        if (!rr.found || alt.cost < 0.75 * chosen.cost) chosen = alt;  // RANSAC's fit unless clearly worse
+        if (!rr.found || alt.cost < 0.75 * chosen.cost) chosen = alt, placed = true;  // RANSAC's fit unless clearly worse
       }
       a.any = true;
       a.chosen = chosen;
@@ -265,6 +269,12 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
                      order[oi], ps.size(), guided ? "" : " (unguided)", c0.x(), c0.y(), c0.z(), a.ev.error / L, a.ev.score, a.ev.key_agreement, df.volume_ratio, df.scale_min,
                      df.scale_max, df.perspective, a.ev.obstructed, a.ev.partial_faces, a.ev.overhang, rr.iterations, a.ev.accepted() ? "accepted" : "rejected by ",
                      a.ev.failed().c_str());
+        // which candidate won, their costs before and after polish, and when RANSAC improved
+        std::string traj;
+        for (const auto& [i, c] : rr.improvements) traj += " " + std::to_string(i) + ":" + std::to_string(c / L).substr(0, 6);
+        std::fprintf(stderr, "   cost/L: ransac %.4f polished %.4f, placement %.4f polished %.4f: %s; placement and ransac %.2f s, polish %.2f s; ransac best at%s\n",
+                     rr.found ? rr.cost / L : -1.0, rr.found ? polished_rr / L : -1.0, placement.pair >= 0 ? placement.cost / L : -1.0,
+                     placement.pair >= 0 ? alt.cost / L : -1.0, placed ? "placement's" : "ransac's", t_search, t_polish, traj.c_str());
         const Eigen::Vector3d rc = 0.5 * (scorer.key_box_min() + scorer.key_box_max());
         const Eigen::Matrix3d J = transform_jacobian(chosen.H, rc);
         const Eigen::Vector3d m = apply_transform(chosen.H, rc);

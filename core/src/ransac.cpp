@@ -171,6 +171,7 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
         best.H = d.H;
         best.found = true;
         best.sample = d.sample;
+        best.improvements.emplace_back(it, d.cost);
         since_best = 0;
       }
     }

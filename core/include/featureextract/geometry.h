@@ -125,6 +125,8 @@ struct RansacResult {
   int iterations = 0;
   int affine_samples = 0;  ///< hypotheses that came from the affine fallback
   std::array<int, 5> sample{{-1, -1, -1, -1, -1}};
+  /// (iteration, cost) at each improvement of the best, in order (for traces).
+  std::vector<std::pair<int, double>> improvements;
 };
 RansacResult ransac_projective(const Points& ref, const Points& tgt,
                                const std::function<double(const Eigen::Matrix4d&)>& cost,
