@@ -21,6 +21,18 @@ Samples sample_surface(const TriangleMesh& mesh, double spacing, std::uint64_t s
   struct Cell { Eigen::Vector3d p, n; int tri; double d2; };
   std::unordered_map<std::uint64_t, std::size_t> cell_of;
   std::vector<Cell> cells;
+  {  // room for the cells a surface of this area meets, so that the map does not grow by rehashing
+    double area = 0;
+    for (Eigen::Index t = 0; t < mesh.triangles.rows(); ++t)
+      area += 0.5 * (mesh.vertices.row(mesh.triangles(t, 1)) - mesh.vertices.row(mesh.triangles(t, 0)))
+                        .cross(mesh.vertices.row(mesh.triangles(t, 2)) - mesh.vertices.row(mesh.triangles(t, 0)))
+                        .norm();
+    const double expect = 1.5 * area * inv * inv;
+    if (std::isfinite(expect) && expect < 5e7) {
+      cell_of.reserve(static_cast<std::size_t>(expect));
+      cells.reserve(static_cast<std::size_t>(expect));
+    }
+  }
   auto key = [&](const Eigen::Vector3d& p, Eigen::Vector3d& center) {
     const Eigen::Vector3d g = (p - origin) * inv;
     // through a signed integer: a sample a rounding error below the origin is in cell -1, and a
