@@ -139,6 +139,7 @@ HypothesisScorer::HypothesisScorer(const ShapeDescription::Impl& R, const ShapeD
   }
   normal_penalty_ = 2.0 * p.accept_error * L_;
   dense_rows_ = stride_subset(core_dense_, 1500);
+  coarse_rows_ = stride_subset(core_dense_, 500);
   rlo_ = R.keys.colwise().minCoeff();
   rhi_ = R.keys.colwise().maxCoeff();
   screen_rows_ = stride_rows(eval_pts_.rows(), 40);
@@ -584,24 +585,25 @@ bool HypothesisScorer::dense_overhangs(const Eigen::Matrix4d& H, Eigen::Index ro
   return overhangs(y, nm, j, s);
 }
 
-double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H) const {
-  std::vector<double> e(dense_rows_.size());  // on all threads, summed in order
-  std::vector<char> over(dense_rows_.size(), 0);
+double HypothesisScorer::rms_on_surface(const Eigen::Matrix4d& H, bool coarse) const {
+  const std::vector<Eigen::Index>& rows = coarse ? coarse_rows_ : dense_rows_;
+  std::vector<double> e(rows.size());  // on all threads, summed in order
+  std::vector<char> over(rows.size(), 0);
   const double s = std::cbrt(std::abs(deformation(H, rlo_, rhi_).volume_ratio));
 #pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < dense_rows_.size(); ++k) {
-    const Eigen::Vector3d y = apply_transform(H, R_.dense.points.row(dense_rows_[k]).transpose());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const Eigen::Vector3d y = apply_transform(H, R_.dense.points.row(rows[k]).transpose());
     int j;
     e[k] = surface_distance(T_, y, &j);
-    over[k] = !open_dense_.empty() && s > 0 && dense_overhangs(H, dense_rows_[k], y, e[k], j, s);
+    over[k] = !open_dense_.empty() && s > 0 && dense_overhangs(H, rows[k], y, e[k], j, s);
   }
   // overhanging samples are left out (while at most max_overhang of them)
   const std::size_t no = static_cast<std::size_t>(std::count(over.begin(), over.end(), 1));
-  const bool skip = no > 0 && static_cast<double>(no) <= p_.max_overhang * static_cast<double>(dense_rows_.size());
+  const bool skip = no > 0 && static_cast<double>(no) <= p_.max_overhang * static_cast<double>(rows.size());
   double sq = 0;
   for (std::size_t k = 0; k < e.size(); ++k)
     if (!(skip && over[k])) sq += std::isfinite(e[k]) ? e[k] * e[k] : L_ * L_;
-  return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, dense_rows_.size() - (skip ? no : 0))));
+  return std::sqrt(sq / static_cast<double>(std::max<std::size_t>(1, rows.size() - (skip ? no : 0))));
 }
 
 namespace {

@@ -110,7 +110,8 @@ class HypothesisScorer {
   /// Acceptance error (paper 3.8: the maximum; error_quantile < 1: that quantile), reference units.
   double quantile_error(const Eigen::Matrix4d& H) const;
   /// RMS distance of the mapped reference (dense subsample) to the target surface, target units.
-  double rms_on_surface(const Eigen::Matrix4d& H) const;
+  /// `coarse`: on a third of those samples (the spin search's many turns).
+  double rms_on_surface(const Eigen::Matrix4d& H, bool coarse = false) const;
 
   /// Every acceptance check of H at scale s. With `all`, the expensive checks (free space, whole
   /// faces) are measured even after a cheap one failed (for the debug trace).
@@ -161,7 +162,7 @@ class HypothesisScorer {
   const ShapeDescription::Impl& T_;
   const Params& p_;
   double L_;
-  std::vector<Eigen::Index> core_keys_, core_dense_, dense_rows_, screen_rows_;
+  std::vector<Eigen::Index> core_keys_, core_dense_, dense_rows_, coarse_rows_, screen_rows_;
   std::vector<char> open_dense_, eval_open_;  // per R.dense row / per eval point: may overhang
   std::vector<double> border_dist_, eval_border_dist_;  // distance to the reference's open border (open rows)
   std::vector<int> eval_face_;                          // reference face of each eval point

@@ -259,6 +259,25 @@ TEST_F(SelfMatch, TheScreeningStopsOnlyWhatCannotComeUnderItsLimit) {
   EXPECT_TRUE(std::isinf(scorer.screen_cost(H, 1.0, 0.0)));
 }
 
+// The spin search measures its 54 turns on a third of the refinement's samples (twenty-fifth
+// session: the refinement was 6.1 of CTC-02's 11.0 s of matching); the turns are compared within 25 %
+// of the best, so the coarse RMS must follow the full one well inside that, near the surface and
+// off it, and be the same on every call.
+TEST_F(SelfMatch, TheSpinSearchsCoarseRmsFollowsTheFullOne) {
+  const fe::HypothesisScorer scorer(R(), T(), params, fe::FeatureCore{});
+  ASSERT_GE(scorer.dense_rows().size(), 1500u);  // the coarse samples are a third of them
+  const double L = R().L;
+  for (const double shift : {0.002, 0.01, 0.05, 0.15}) {
+    const Eigen::Matrix4d H = moved(Eigen::Vector3d(shift * L, -0.5 * shift * L, 0.3 * shift * L), 2 * shift);
+    const double full = scorer.rms_on_surface(H), coarse = scorer.rms_on_surface(H, true);
+    ASSERT_TRUE(std::isfinite(full) && std::isfinite(coarse)) << "shift " << shift;
+    ASSERT_GT(full, 0.0);
+    EXPECT_NEAR(coarse, full, 0.1 * full) << "shift " << shift;
+    EXPECT_EQ(coarse, scorer.rms_on_surface(H, true));
+  }
+  EXPECT_LE(scorer.rms_on_surface(Eigen::Matrix4d::Identity(), true), 1e-3 * L);
+}
+
 // RANSAC's cost stops a hypothesis once its truncated sum cannot come under the limit, one sample
 // after another, where the cost without a limit is summed over all samples at once on every thread:
 // with samples that overhang (costed at the acceptance bound), the limited cost must still be the
