@@ -301,23 +301,23 @@ Polished SurfaceRefinement::polish(const Eigen::Matrix4d& H0, double cost0, cons
         tried.emplace_back(theta, scorer_.rms_on_surface(Hs, true), tb ? border_distance(*tb, Hs, s) : 0.0);
       };
       const double noise = 0.001 * L_ * s;
-      auto best_of = [&](double* theta, double* rms, double* border) {
+      auto best_of = [&](double* theta, double* border) {
         double low = INFINITY, key_best = INFINITY;
         for (const auto& t : tried) low = std::min(low, std::get<1>(t));
         for (const auto& [th, r, b] : tried) {
           if (r > std::max(1.25 * low, low + noise)) continue;
           const double key = tb ? b : r;
-          if (key < key_best - 1e-12 * L_) key_best = key, *theta = th, *rms = r, *border = b;
+          if (key < key_best - 1e-12 * L_) key_best = key, *theta = th, *border = b;
         }
       };
       constexpr double deg = EIGEN_PI / 180.0;
       for (int k = 0; k < 36; ++k) try_spin(10.0 * k * deg);
-      double coarse = 0, best_rms = scorer_.rms_on_surface(H, true), best_border = 0;
-      best_of(&coarse, &best_rms, &best_border);
+      double coarse = 0, best_border = 0;
+      best_of(&coarse, &best_border);
       for (int k = -9; k <= 9; ++k)
         if (k != 0) try_spin(coarse + k * deg);
       double best_theta = 0;
-      best_of(&best_theta, &best_rms, &best_border);
+      best_of(&best_theta, &best_border);
       const Eigen::Matrix4d Hu = untwist(H, sym_);
       // (on all the samples: the untwisted spin is kept when it does as well as the best within 5 %,
       // a margin finer than the coarse samples' noise on a round feature)

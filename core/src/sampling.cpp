@@ -2,6 +2,7 @@
 // of side `spacing` so that the density is uniform whatever the tessellation (cracked, unwelded or
 // jittered meshes sample like clean ones).
 #include "featureextract/geometry.h"
+#include "description.h"  // mesh_area
 
 #include <Eigen/Geometry>  // .cross()
 #include <cmath>
@@ -22,12 +23,7 @@ Samples sample_surface(const TriangleMesh& mesh, double spacing, std::uint64_t s
   std::unordered_map<std::uint64_t, std::size_t> cell_of;
   std::vector<Cell> cells;
   {  // room for the cells a surface of this area meets, so that the map does not grow by rehashing
-    double area = 0;
-    for (Eigen::Index t = 0; t < mesh.triangles.rows(); ++t)
-      area += 0.5 * (mesh.vertices.row(mesh.triangles(t, 1)) - mesh.vertices.row(mesh.triangles(t, 0)))
-                        .cross(mesh.vertices.row(mesh.triangles(t, 2)) - mesh.vertices.row(mesh.triangles(t, 0)))
-                        .norm();
-    const double expect = 1.5 * area * inv * inv;
+    const double expect = 1.5 * mesh_area(mesh) * inv * inv;
     if (std::isfinite(expect) && expect < 5e7) {
       cell_of.reserve(static_cast<std::size_t>(expect));
       cells.reserve(static_cast<std::size_t>(expect));
