@@ -133,6 +133,14 @@ def library_hash(feats):
 LIBRARY_SIZE_LADDER = 3
 
 
+def available_cores():
+    """The cores this process may run on (its affinity mask: a batch job's or container's share)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
 def size_class(fxm, diagonal, ladder=LIBRARY_SIZE_LADDER):
     """The doubling a feature's size falls in, after the engine's rounding to the size ladder (features
     on one rung fall in the same class, so they share one tessellation and its descriptions)."""
@@ -362,15 +370,19 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
            "library": {"path": os.path.abspath(library), "hash": library_hash(feats), "features": len(feats)},
            "features": [], "overlaps": []}
     entries = [None] * len(feats)
-    for n, i in enumerate(order):
-        f, ref = feats[i], refs[i]
+    position = {i: n for n, i in enumerate(order)}
+
+    def search_one(i, threads=None):
+        f, ref, n = feats[i], refs[i], position[i]
         if progress:
             progress(n, len(feats), f["name"])
         entry = {"name": f["name"], "class": f["class"], "dir": f["dir"], "hash": f["hash"], "rules": rule_text(f["spec"]),
                  "matches": [], "error": None, "warnings": []}
         t1 = time.monotonic()
         try:
-            p = params[i]
+            p = search_params(fxm, f, overrides)  # its own copy: searches may run side by side
+            if threads is not None:
+                p.threads = threads
             if time_limit:
                 left = time_limit - (time.monotonic() - t0)
                 if left <= 0:
@@ -387,6 +399,32 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
             entry["error"] = " ".join(str(e).split())
         entry["seconds"] = round(time.monotonic() - t1, 3)
         entries[i] = entry
+
+    # Features side by side. One feature's matching keeps about 1.2 of 2 cores busy (RANSAC scores
+    # its hypotheses a few at a time), so the features that share a target description (a rung of
+    # the size ladder, the same search settings) are searched `jobs` at a time, each on its share of
+    # the cores, once the rung's first feature, searched alone on all of them, has described the part
+    # (describing uses many cores well). Rung by rung, so that the description is still in the
+    # prepared target's small cache. Each result is the same for any thread count, so the same as
+    # searched one after another.
+    budget = int(overrides.get("threads", 0)) or available_cores()
+    rungs = {}
+    for i in order:
+        ladder = int(params[i].size_ladder)
+        key = (size_class(fxm, refs[i].diagonal, ladder), fxm.size_on_ladder(max(refs[i].diagonal, 1e-9), ladder),
+               json.dumps(feats[i]["search"], sort_keys=True))
+        rungs.setdefault(key, []).append(i)
+    for first, *rest in rungs.values():
+        search_one(first)
+        jobs = min(budget, len(rest))
+        if jobs <= 1:
+            for i in rest:
+                search_one(i)
+            continue
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            for fut in [pool.submit(search_one, i, max(1, budget // jobs)) for i in rest]:
+                fut.result()  # a time limit reached ends the search (the others stop at the same limit)
     out["features"] = entries  # in the library's order
     out["overlaps"] = overlaps(out["features"])
     out["tessellations"] = made["tessellations"]

@@ -77,6 +77,36 @@ class Library(unittest.TestCase):
         # the same features' descriptions are shared: the rib twice costs one target description
         self.assertLessEqual(res["descriptions_built"], 2)
 
+    def test_features_searched_side_by_side_find_what_one_at_a_time_finds(self):
+        # three features on one rung of the size ladder: the first describes the part on both
+        # threads, the other two are searched at the same time on one thread each
+        lib = os.path.join(self.dir, "thrice")
+        for k, name in enumerate(("rib", "rib b", "rib c")):
+            shutil.copytree(os.path.join(SHIPPED, "rib"), os.path.join(lib, f"rib{k}"))
+            spec_path = os.path.join(lib, f"rib{k}", "feature.json")
+            with open(spec_path) as f:
+                spec = json.load(f)
+            spec["name"] = name
+            with open(spec_path, "w") as f:
+                json.dump(spec, f)
+        res = {}
+        for threads in (2, 1):  # 2: side by side; 1: one after the other
+            out = os.path.join(self.dir, f"thrice{threads}.json")
+            r = fx("search", "--library", lib, "--target", PLATE, "--output", out, "-q", "--set", f"threads={threads}")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(out) as f:
+                res[threads] = json.load(f)
+            self.assertEqual(res[threads]["descriptions_built"], 1)
+        by_name = {t: {f["name"]: f for f in res[t]["features"]} for t in res}
+        self.assertEqual(sorted(by_name[2]), ["rib", "rib b", "rib c"])
+        self.assertEqual(sorted(f["params"]["threads"] for f in res[2]["features"]), [1, 1, 2])
+        self.assertEqual([f["params"]["threads"] for f in res[1]["features"]], [1, 1, 1])
+        for name, f in by_name[2].items():
+            self.assertEqual(len(f["matches"]), 5, name)
+            self.assertEqual(f["matches"], by_name[1][name]["matches"], name)  # the same to the last digit
+            self.assertEqual(f["matches"], by_name[2]["rib"]["matches"], name)
+        self.assertEqual(res[2]["overlaps"], res[1]["overlaps"])
+
     def test_faces_picked_on_a_part_become_a_feature_that_is_found_again(self):
         boss = next(f for f in self.plate["features"] if f["name"] == "screw boss")["matches"][0]
         lib = os.path.join(self.dir, "mine")

@@ -255,6 +255,21 @@ class App_(unittest.TestCase):
         self.assertGreater(umax, 0)
         self.assertLess(umax, 1e-3)  # 200 N on a steel plate held on its underside: far below a micron
 
+    def test_library_search_progress_never_goes_back_with_features_side_by_side(self):
+        # features that share a description are searched two at a time: their lines interleave
+        from freecad.feature_extract import library
+        seen = []
+        report = library._overall(lambda stage, f: seen.append((stage, f)) or True)
+        for stage, f in [("rib (1 of 3): reference: sampling", 0.0), ("rib (1 of 3): ransac", 0.5), ("rib (1 of 3): done", 1.0),
+                         ("a (2 of 3): reference: sampling", 0.0), ("b (3 of 3): reference: sampling", 0.0),
+                         ("b (3 of 3): ransac", 0.6), ("a (2 of 3): ransac", 0.2), ("a (2 of 3): done", 1.0),
+                         ("b (3 of 3): ransac", 0.9), ("b (3 of 3): done", 1.0)]:
+            self.assertTrue(report(stage, f))
+        fractions = [f for _, f in seen]
+        self.assertEqual(fractions, sorted(fractions), seen)
+        self.assertEqual(fractions[-1], 1.0)
+        self.assertTrue(seen[6][0].startswith("a (2 of 3): ransac"), seen[6])  # each line keeps its feature's name
+
     def test_library_search_groups_per_feature_and_bad_input(self):
         # issue 13, item 4, headless: a library searched from a macro; one group per feature found
         import shutil

@@ -118,20 +118,23 @@ def _library_state(library):
 def _overall(progress):
     """The search's lines ("NAME (K of N): STAGE", fraction of the stage) as one fraction of the whole
     search that never goes back: each feature gets 1/N of the bar, filled as api.OverallProgress
-    fills a single extraction's."""
+    fills a single extraction's. Features searched side by side print their lines interleaved: each
+    keeps its own bar, and the whole shows the furthest."""
     import re
     from .api import OverallProgress
-    state = {"k": None, "bar": None}
+    state = {"bars": {}, "shown": 0.0}
 
     def report(stage, fraction):
         m = re.match(r"(.*) \((\d+) of (\d+)\): (.*)$", stage)
         if not m:
             return progress(stage, fraction)
         k, n = int(m.group(2)) - 1, max(1, int(m.group(3)))
-        if state["k"] != k:
-            state["k"] = k
-            state["bar"] = OverallProgress(lambda s, v: progress(f"{m.group(1)} ({k + 1} of {n}): {s}", (k + v) / n))
-        return state["bar"](m.group(4), fraction)
+        if k not in state["bars"]:
+            def shown(s, v, k=k, n=n, name=m.group(1)):
+                state["shown"] = max(state["shown"], (k + v) / n)
+                return progress(f"{name} ({k + 1} of {n}): {s}", state["shown"])
+            state["bars"][k] = OverallProgress(shown)
+        return state["bars"][k](m.group(4), fraction)
     return report
 
 
