@@ -68,7 +68,15 @@ void side_by_side(const std::function<void()>& a, const std::function<void()>& b
 
 void set_threads(const Params& p) {
 #ifdef _OPENMP
-  omp_set_num_threads(p.threads > 0 ? p.threads : omp_get_num_procs());
+  omp_set_num_threads(thread_budget(p));
+#endif
+}
+
+int thread_budget(const Params& p) {
+#ifdef _OPENMP
+  return p.threads > 0 ? p.threads : omp_get_num_procs();
+#else
+  return 1;
 #endif
 }
 

@@ -67,6 +67,9 @@ void report(const ProgressFn& progress, const std::string& stage, double f);
 
 /// OpenMP's thread count from Params::threads (0: every core).
 void set_threads(const Params& p);
+
+/// The threads a search may use: Params::threads, or every core for 0 (1 without OpenMP).
+int thread_budget(const Params& p);
 /// Runs two independent jobs side by side (OpenMP sections, on two threads where more than one is
 /// allowed; one after the other when `parallel` is false), then rethrows the first one's exception.
 void side_by_side(const std::function<void()>& a, const std::function<void()>& b, bool parallel = true);

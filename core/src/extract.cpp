@@ -21,12 +21,15 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <iterator>
 #include <functional>
+#include <future>
+#include <iterator>
+#include <mutex>
 #include <sstream>
 
 namespace fe {
@@ -653,9 +656,9 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     const std::string tname = target.source.empty() ? std::string("target") : target.source;
     const double f = dense_coarsening(target, L, asked, tname);
     const Params params = coarsened(asked, f);
-    auto describe_reference = [&](const TriangleMesh& m) {
+    auto describe_reference = [&](const TriangleMesh& m, const Params& with, const ProgressFn& told) {
       try {
-        return describe(m, ShapeDescription::Role::Reference, L, params, progress);
+        return describe(m, ShapeDescription::Role::Reference, L, with, told);
       } catch (const NoKeyPoints& e) {
         if (!(f > 1)) throw;
         std::ostringstream w;
@@ -665,47 +668,102 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         throw NoKeyPoints(w.str());
       }
     };
-    const ShapeDescription r = describe_reference(ref);
-    const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
-    Result out = match_core(r, *t, target, params, progress, core);
-    if (params.mirror) {
-      const auto& R = r.impl();
-      out.reference_mirror_symmetric = is_mirror_symmetric(R.dense.points, R.dense_normals, 1.5 * R.dense_h);
-      if (!out.reference_mirror_symmetric) {
-        Eigen::Matrix4d M;
-        const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
-        const ShapeDescription rm = describe_reference(mirrored_mesh(ref, c, &M));
-        FeatureCore fm = core;  // the mirror image's core: reflected through x = c.x()
-        if (core.set) {
-          fm.lo.x() = 2 * c.x() - core.hi.x();
-          fm.hi.x() = 2 * c.x() - core.lo.x();
-        }
-        if (core.open_border) {
-          Points b = *core.open_border;
-          b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
-          fm.open_border = std::make_shared<const Points>(std::move(b));
-        }
-        if (core.through_ends) {
-          Points b = *core.through_ends, u = *core.through_outward;
-          b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
-          u.col(0) = -u.col(0);
-          fm.through_ends = std::make_shared<const Points>(std::move(b));
-          fm.through_outward = std::make_shared<const Points>(std::move(u));
-        }
-        merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
-        out.mirror_searched = true;
+    auto finish = [&](Result& out) -> Result {
+      if (f > 1) {
+        out.params = asked;  // the parameters asked for; the warning says what the coarser pass used
+        std::ostringstream w;
+        w.precision(3);
+        w << tname << ": surface too large for the dense spacing at this feature size (more than max_dense_points samples): "
+          << "the reference and the target were both described " << f << "x coarser (dense spacing " << params.dense_spacing * L
+          << "), small features may be missed";
+        out.warnings.push_back(w.str());
       }
+      return std::move(out);
+    };
+    const ShapeDescription r = describe_reference(ref, params, progress);
+    const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
+    const auto& R = r.impl();
+    const bool symmetric = params.mirror && is_mirror_symmetric(R.dense.points, R.dense_normals, 1.5 * R.dense_h);
+    if (!params.mirror || symmetric) {
+      Result out = match_core(r, *t, target, params, progress, core);
+      out.reference_mirror_symmetric = symmetric;
+      return finish(out);
     }
-    if (f > 1) {
-      out.params = asked;  // the parameters asked for; the warning says what the coarser pass used
-      std::ostringstream w;
-      w.precision(3);
-      w << tname << ": surface too large for the dense spacing at this feature size (more than max_dense_points samples): "
-        << "the reference and the target were both described " << f << "x coarser (dense spacing " << params.dense_spacing * L
-        << "), small features may be missed";
-      out.warnings.push_back(w.str());
+    Eigen::Matrix4d M;
+    const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
+    const TriangleMesh mirrored_ref = mirrored_mesh(ref, c, &M);
+    FeatureCore fm = core;  // the mirror image's core: reflected through x = c.x()
+    if (core.set) {
+      fm.lo.x() = 2 * c.x() - core.hi.x();
+      fm.hi.x() = 2 * c.x() - core.lo.x();
     }
-    return out;
+    if (core.open_border) {
+      Points b = *core.open_border;
+      b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
+      fm.open_border = std::make_shared<const Points>(std::move(b));
+    }
+    if (core.through_ends) {
+      Points b = *core.through_ends, u = *core.through_outward;
+      b.col(0) = (2 * c.x() - b.col(0).array()).matrix();
+      u.col(0) = -u.col(0);
+      fm.through_ends = std::make_shared<const Points>(std::move(b));
+      fm.through_outward = std::make_shared<const Points>(std::move(u));
+    }
+    // The reference and its mirror image are two searches of one target description that know
+    // nothing of each other until merged. One search keeps about 1.2 of 2 cores busy (RANSAC scores
+    // a few hypotheses at a time), so with two or more threads they run side by side, each on its
+    // share; each finds what it finds on any number of threads, so the merged result is the same
+    // as one after the other. The mirror image's search runs on a thread of its own and reports to
+    // no one: this thread passes its stages on (a Cancel or the time limit stops both). FE_DEBUG
+    // keeps them one after the other, so that each attempt's trace stays in one piece.
+    const int budget = thread_budget(params);
+    if (budget < 2 || std::getenv("FE_DEBUG")) {
+      Result out = match_core(r, *t, target, params, progress, core);
+      const ShapeDescription rm = describe_reference(mirrored_ref, params, progress);
+      merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
+      out.reference_mirror_symmetric = false;
+      out.mirror_searched = true;
+      return finish(out);
+    }
+    Params own = params, theirs = params;
+    theirs.threads = budget / 2;
+    own.threads = budget - theirs.threads;
+    std::atomic<bool> stop{false};
+    std::mutex seen_mutex;
+    std::pair<std::string, double> seen{"reference", 0.0};  // the mirror search's last report
+    const ProgressFn quiet = [&](const std::string& stage, double fr) {
+      std::lock_guard<std::mutex> lock(seen_mutex);
+      seen = {stage, fr};
+      return !stop.load();
+    };
+    std::future<Result> mirror = std::async(std::launch::async, [&] {
+      const ShapeDescription rm = describe_reference(mirrored_ref, theirs, quiet);
+      return match_core(rm, *t, target, theirs, quiet, fm);
+    });
+    Result out;
+    try {
+      out = match_core(r, *t, target, own, progress, core);
+      while (mirror.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
+        std::pair<std::string, double> now;
+        {
+          std::lock_guard<std::mutex> lock(seen_mutex);
+          now = seen;
+        }
+        report(progress, now.first, now.second);  // throws Cancelled when asked to stop
+      }
+    } catch (...) {
+      stop = true;
+      mirror.wait();  // its own Cancelled, or whatever it threw, goes with it
+      set_threads(params);
+      throw;
+    }
+    set_threads(params);
+    Result theirs_found = mirror.get();  // what it threw, as one after the other would have
+    out.params.threads = params.threads;  // the search's, not this half's
+    merge_mirrored(out, std::move(theirs_found), M, params);
+    out.reference_mirror_symmetric = false;
+    out.mirror_searched = true;
+    return finish(out);
   };
   // With scale bands, the ridge-and-rut fallback happens when no band found anything (a band of small
   // instances that finds one keeps the fallback from searching the reference's own band again).

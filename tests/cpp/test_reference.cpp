@@ -9,12 +9,14 @@
 #include "test_util.h"
 
 #include <gtest/gtest.h>
+
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <thread>
 
 namespace {
 
@@ -320,6 +322,44 @@ TEST(Mirror, MirrorImagesAreFoundAndReported) {
   for (const auto& m : plain.matches) EXPECT_FALSE(m.mirrored);
   EXPECT_LT(match_near(plain, t[2]["center"][0], t[2]["center"][1], 5.0), 0);
   EXPECT_LT(match_near(plain, t[3]["center"][0], t[3]["center"][1], 5.0), 0);
+}
+
+TEST(Mirror, TheMirrorImagesSearchSideBySideFindsWhatOneAfterTheOtherFinds) {
+  // with two threads the reference's search and its mirror image's run at the same time, one thread
+  // each: the same matches to the last bit as one after the other (one thread)
+  const fe::TriangleMesh r = fe::read_shape(models() + "/l_pad_reference.brep");
+  const fe::TriangleMesh t = fe::read_shape(models() + "/l_pads.step", fe::tessellation_for_feature(r.diagonal()));
+  fe::Params two, one;
+  two.threads = 2;
+  one.threads = 1;
+  std::vector<std::string> stages;
+  const std::thread::id caller = std::this_thread::get_id();
+  bool elsewhere = false;
+  const fe::Result a = fe::extract(r, t, two, [&](const std::string& s, double) {
+    stages.push_back(s);
+    elsewhere = elsewhere || std::this_thread::get_id() != caller;
+    return true;
+  });
+  const fe::Result b = fe::extract(r, t, one);
+  ASSERT_TRUE(a.mirror_searched);
+  EXPECT_EQ(a.params.threads, 2);
+  ASSERT_EQ(a.matches.size(), 4u);
+  ASSERT_EQ(a.matches.size(), b.matches.size());
+  for (std::size_t i = 0; i < a.matches.size(); ++i) {
+    EXPECT_EQ(a.matches[i].transform, b.matches[i].transform) << i;
+    EXPECT_EQ(a.matches[i].faces, b.matches[i].faces) << i;
+    EXPECT_EQ(a.matches[i].score, b.matches[i].score) << i;
+    EXPECT_EQ(a.matches[i].mirrored, b.matches[i].mirrored) << i;
+  }
+  EXPECT_EQ(a.warnings, b.warnings);
+  // every report came from the calling thread (the mirror image's stages passed on by it)
+  EXPECT_FALSE(elsewhere);
+  ASSERT_GT(stages.size(), 20u);
+  // cancelled at any point, the search stops with Cancelled (the mirror image's thread with it)
+  for (const std::size_t at : {std::size_t{3}, stages.size() / 2, stages.size() - 3}) {
+    std::size_t calls = 0;
+    EXPECT_THROW(fe::extract(r, t, two, [&](const std::string&, double) { return ++calls < at; }), fe::Cancelled) << at;
+  }
 }
 
 TEST(Creases, SharpEdgesAndCornersOfACube) {
