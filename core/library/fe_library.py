@@ -400,7 +400,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
         entry["seconds"] = round(time.monotonic() - t1, 3)
         entries[i] = entry
 
-    # Features side by side. One feature's matching keeps about 1.2 of 2 cores busy (RANSAC scores
+    # Features side by side. One feature's search keeps about 1.4 of 2 cores busy (RANSAC scores
     # its hypotheses a few at a time), so the features that share a target description (a rung of
     # the size ladder, the same search settings) are searched `jobs` at a time, each on its share of
     # the cores, once the rung's first feature, searched alone on all of them, has described the part

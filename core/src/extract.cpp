@@ -710,7 +710,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
       fm.through_outward = std::make_shared<const Points>(std::move(u));
     }
     // The reference and its mirror image are two searches of one target description that know
-    // nothing of each other until merged. One search keeps about 1.2 of 2 cores busy (RANSAC scores
+    // nothing of each other until merged. One search keeps 1.4-1.5 of 2 cores busy (RANSAC scores
     // a few hypotheses at a time), so with two or more threads they run side by side, each on its
     // share; each finds what it finds on any number of threads, so the merged result is the same
     // as one after the other. The mirror image's search runs on a thread of its own and reports to
