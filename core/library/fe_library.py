@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -411,8 +412,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
     rungs = {}
     for i in order:
         ladder = int(params[i].size_ladder)
-        key = (size_class(fxm, refs[i].diagonal, ladder), fxm.size_on_ladder(max(refs[i].diagonal, 1e-9), ladder),
-               json.dumps(feats[i]["search"], sort_keys=True))
+        key = (fxm.size_on_ladder(max(refs[i].diagonal, 1e-9), ladder), json.dumps(feats[i]["search"], sort_keys=True))
         rungs.setdefault(key, []).append(i)
     for first, *rest in rungs.values():
         search_one(first)
@@ -421,7 +421,6 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
             for i in rest:
                 search_one(i)
             continue
-        from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(max_workers=jobs) as pool:
             for fut in [pool.submit(search_one, i, max(1, budget // jobs)) for i in rest]:
                 fut.result()  # a time limit reached ends the search (the others stop at the same limit)

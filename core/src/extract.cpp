@@ -668,7 +668,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
         throw NoKeyPoints(w.str());
       }
     };
-    auto finish = [&](Result& out) -> Result {
+    auto finish = [&](Result out) {
       if (f > 1) {
         out.params = asked;  // the parameters asked for; the warning says what the coarser pass used
         std::ostringstream w;
@@ -678,7 +678,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
           << "), small features may be missed";
         out.warnings.push_back(w.str());
       }
-      return std::move(out);
+      return out;
     };
     const ShapeDescription r = describe_reference(ref, params, progress);
     const std::shared_ptr<const ShapeDescription> t = target_for(L, params, progress);
@@ -687,7 +687,7 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     if (!params.mirror || symmetric) {
       Result out = match_core(r, *t, target, params, progress, core);
       out.reference_mirror_symmetric = symmetric;
-      return finish(out);
+      return finish(std::move(out));
     }
     Eigen::Matrix4d M;
     const Eigen::Vector3d c = 0.5 * (R.box_min + R.box_max);
@@ -716,54 +716,52 @@ Result search_within(const TriangleMesh& reference_in, const TriangleMesh& targe
     // as one after the other. The mirror image's search runs on a thread of its own and reports to
     // no one: this thread passes its stages on (a Cancel or the time limit stops both). FE_DEBUG
     // keeps them one after the other, so that each attempt's trace stays in one piece.
+    // (Not side_by_side(): its OpenMP sections leave each search one thread on any machine, and it
+    // would call `progress` from a thread that is not the caller's.)
     const int budget = thread_budget(params);
+    Result out, theirs_found;
     if (budget < 2 || std::getenv("FE_DEBUG")) {
-      Result out = match_core(r, *t, target, params, progress, core);
-      const ShapeDescription rm = describe_reference(mirrored_ref, params, progress);
-      merge_mirrored(out, match_core(rm, *t, target, params, progress, fm), M, params);
-      out.reference_mirror_symmetric = false;
-      out.mirror_searched = true;
-      return finish(out);
-    }
-    Params own = params, theirs = params;
-    theirs.threads = budget / 2;
-    own.threads = budget - theirs.threads;
-    std::atomic<bool> stop{false};
-    std::mutex seen_mutex;
-    std::pair<std::string, double> seen{"reference", 0.0};  // the mirror search's last report
-    const ProgressFn quiet = [&](const std::string& stage, double fr) {
-      std::lock_guard<std::mutex> lock(seen_mutex);
-      seen = {stage, fr};
-      return !stop.load();
-    };
-    std::future<Result> mirror = std::async(std::launch::async, [&] {
-      const ShapeDescription rm = describe_reference(mirrored_ref, theirs, quiet);
-      return match_core(rm, *t, target, theirs, quiet, fm);
-    });
-    Result out;
-    try {
-      out = match_core(r, *t, target, own, progress, core);
-      while (mirror.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
-        std::pair<std::string, double> now;
-        {
-          std::lock_guard<std::mutex> lock(seen_mutex);
-          now = seen;
+      out = match_core(r, *t, target, params, progress, core);
+      theirs_found = match_core(describe_reference(mirrored_ref, params, progress), *t, target, params, progress, fm);
+    } else {
+      Params own = params, theirs = params;
+      theirs.threads = budget / 2;
+      own.threads = budget - theirs.threads;
+      std::atomic<bool> stop{false};
+      std::mutex seen_mutex;
+      std::pair<std::string, double> seen{"reference", 0.0};  // the mirror search's last report
+      const ProgressFn quiet = [&](const std::string& stage, double fr) {
+        std::lock_guard<std::mutex> lock(seen_mutex);
+        seen = {stage, fr};
+        return !stop.load();
+      };
+      std::future<Result> mirror = std::async(std::launch::async, [&] {
+        return match_core(describe_reference(mirrored_ref, theirs, quiet), *t, target, theirs, quiet, fm);
+      });
+      try {
+        out = match_core(r, *t, target, own, progress, core);
+        while (mirror.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
+          std::pair<std::string, double> now;
+          {
+            std::lock_guard<std::mutex> lock(seen_mutex);
+            now = seen;
+          }
+          report(progress, now.first, now.second);  // throws Cancelled when asked to stop
         }
-        report(progress, now.first, now.second);  // throws Cancelled when asked to stop
+      } catch (...) {
+        stop = true;
+        mirror.wait();  // its own Cancelled, or whatever it threw, goes with it
+        set_threads(params);
+        throw;
       }
-    } catch (...) {
-      stop = true;
-      mirror.wait();  // its own Cancelled, or whatever it threw, goes with it
       set_threads(params);
-      throw;
+      theirs_found = mirror.get();  // what it threw, as one after the other would have
+      out.params.threads = params.threads;  // the search's, not this half's
     }
-    set_threads(params);
-    Result theirs_found = mirror.get();  // what it threw, as one after the other would have
-    out.params.threads = params.threads;  // the search's, not this half's
     merge_mirrored(out, std::move(theirs_found), M, params);
     out.reference_mirror_symmetric = false;
     out.mirror_searched = true;
-    return finish(out);
+    return finish(std::move(out));
   };
   // With scale bands, the ridge-and-rut fallback happens when no band found anything (a band of small
   // instances that finds one keeps the fallback from searching the reference's own band again).
