@@ -93,6 +93,12 @@ def base_cases(build):
     bottom = "/usr/share/opencascade/data/occ/Bottom.brep"
     if os.path.exists(bottom):
         out.append(("occt_bottom_bosses", bottom, bottom_bosses(bottom)))
+    motor = "/usr/share/opencascade/data/occ/Motor-c.brep"
+    if os.path.exists(motor):
+        out.append(("occt_motor_beads", motor, motor_beads(motor)))
+    exhaust = "/usr/share/opencascade/data/occ/MODERN_Exhaust_1.brep"
+    if os.path.exists(exhaust):
+        out.append(("occt_exhaust_corners", exhaust, exhaust_corners(exhaust)))
     out.append(("counterbores", *counterbore_plate(os.path.join(build, "models", "user_cases"))))
     out.append(("corner_step_block", *corner_step_block(os.path.join(build, "models", "user_cases"))))
     out.append(("counterbore_bosses", *counterbore_bosses(os.path.join(build, "models", "user_cases"))))
@@ -415,6 +421,46 @@ def bottom_bosses(path):
     return [[f"Face{i}" for i, f in enumerate(s.Faces, 1)
              if f.BoundBox.XMin >= c.x - 12 and f.BoundBox.XMax <= c.x + 12
              and f.BoundBox.ZMin >= c.z - 12 and f.BoundBox.ZMax <= c.z + 12] for c in axes]
+
+
+def motor_beads(path):
+    """OCCT's Motor-c.brep (an electric motor modelled as half of it, 17 solids, Debian occt-misc): the
+    five half-round beads (cooling fins) around its R29 casing, 10 mm apart along x, each two
+    quarter-toroidal faces (R32, r3) joined at the crest, the grooves between them R32 cylinders 4 mm
+    wide: instances that touch through the grooves on one connected solid, each a surface of
+    revolution. The reference is the bead at the smallest x. Added in the twenty-seventh session; the
+    split by name as for every case."""
+    s = Part.read(path)
+    idx = [i for i, f in enumerate(s.Faces, 1) if "Toroid" in type(f.Surface).__name__
+           and abs(f.Surface.MajorRadius - 32) < 1e-3 and abs(f.Surface.MinorRadius - 3) < 1e-3]
+    E = {i: _edge_keys(s.Faces[i - 1]) for i in idx}
+    beads = []
+    for i in idx:
+        for b in beads:
+            if any(E[i] & E[j] for j in b):
+                b.append(i)
+                break
+        else:
+            beads.append([i])
+    beads.sort(key=lambda b: min(s.Faces[i - 1].BoundBox.XMin for i in b))
+    return [[f"Face{i}" for i in sorted(b)] for b in beads]
+
+
+def exhaust_corners(path):
+    """OCCT's MODERN_Exhaust_1.brep (an exhaust stub: a rounded rectangular pipe flaring into its base
+    flange, modelled as half of it, Debian occt-misc): the two corners where the pipe's rounded sides
+    sweep down into the flange, mirror images of each other about y = 240.5. Each is the curved faces
+    (cylinders and a B-spline blend, outer and inner skin) of the flare on one side of that plane. The
+    reference is the corner at smaller y. Added in the twenty-seventh session; the split by name as for
+    every case."""
+    s = Part.read(path)
+    flare = s.Solids[1]
+    faces = [i for i, f in enumerate(s.Faces, 1) if "Plane" not in type(f.Surface).__name__
+             and any(f.isSame(g) for g in flare.Faces)]
+    mid = 240.5
+    lo = [f"Face{i}" for i in faces if s.Faces[i - 1].BoundBox.YMax <= mid]
+    hi = [f"Face{i}" for i in faces if s.Faces[i - 1].BoundBox.YMin >= mid]
+    return [lo, hi]
 
 
 def make_reference(shape, faces, style, work, name, scale=1.0):

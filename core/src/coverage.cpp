@@ -25,11 +25,13 @@ bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach
     double d2;
     mapped_tree.nearest(q, &d2);
     const double d = std::sqrt(d2);
-    if (d <= reach) {
-      near.push_back(static_cast<int>(j));
+    if (d <= reach) near.push_back(static_cast<int>(j));
+    // (what tells instances apart is where the fit lies, not the tolerance around it: a bead's fit
+    // reaches its neighbour's flank 4 mm away at Motor-c's tolerance)
+    if (d <= merge_reach) {
+      inst.covered.push_back(static_cast<int>(j));
       if (sampled_faces) ++face_near[face_of(j)];
     }
-    if (d <= merge_reach) inst.covered.push_back(static_cast<int>(j));
   }
   for (std::size_t f = 1; f < face_samples.size(); ++f)
     if (face_samples[f] >= 20 && face_near[f] >= kTouchedShare * face_samples[f]) inst.touched.push_back(static_cast<int>(f));

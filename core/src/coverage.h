@@ -14,9 +14,10 @@ namespace fe {
 struct Instance {
   Match match;
   std::vector<int> covered;
-  /// Target faces the instance lies on over at least kTouchedShare of their area (by dense samples,
-  /// faces of 20 samples or more), sorted: two fits of a smaller reference sliding along one longer
-  /// instance each cover part of the same faces, too little of them to list them (merge.h).
+  /// Target faces the instance lies on over at least kTouchedShare of their area (by dense samples
+  /// within cover_target's merge_reach, faces of 20 samples or more), sorted: two fits of a smaller
+  /// reference sliding along one longer instance each cover part of the same faces, too little of
+  /// them to list them (merge.h).
   std::vector<int> touched;
 };
 

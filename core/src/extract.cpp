@@ -16,6 +16,7 @@
 #include "pairing.h"
 #include "placements.h"
 #include "refine.h"
+#include "region_fit.h"
 #include "topology.h"
 
 #include <Eigen/Dense>
@@ -458,6 +459,56 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       add_instance(chosen.H, chosen.s, ev, mtree, pick->residual, 0);
     }
     res.timings.push_back({"topology", sw.lap()});
+  }
+
+  // Step 6c (issue 9): a reference that is one smooth region (a bead, a fin, a boss picked as its
+  // faces), mapped by its principal frame onto the target's regions of the same proportions
+  // (region_fit.h); judged like RANSAC's.
+  if (p.topology_hypotheses && R.regions.size() == 1 && !R.regions.regions[0].planar && T.regions.size() >= 1) {
+    report(progress, "topology", 0);
+    std::vector<std::vector<Eigen::Index>> rows(T.regions.size());
+    for (std::size_t j = 0; j < T.dense.size(); ++j) {
+      const int r = region_of_sample(T.regions, T, j);
+      if (r >= 0) rows[static_cast<std::size_t>(r)].push_back(static_cast<Eigen::Index>(j));
+    }
+    std::vector<RegionShape> shapes(rows.size());
+    for (std::size_t r = 0; r < rows.size(); ++r)
+      if (!rows[r].empty()) shapes[r] = region_shape(T.dense.points, rows[r]);
+    RegionFitOptions ro;
+    ro.axis_scale_min = p.axis_scale_min;
+    ro.axis_scale_max = p.axis_scale_max;
+    ro.max_anisotropy = p.max_anisotropy;
+    const RegionShape ref_shape = region_shape(R.dense.points, {});
+    const std::vector<RegionHypotheses> rhs = region_hypotheses(ref_shape, shapes, ro);
+    for (std::size_t k = 0; k < rhs.size(); ++k) {
+      report(progress, "topology", static_cast<double>(k) / static_cast<double>(rhs.size()));
+      Polished chosen;
+      chosen.cost = INFINITY;
+      for (const Eigen::Matrix4d& H : rhs[k].H) {
+        double s0 = 1;
+        if (!scorer.bounds_ok(H, &s0)) continue;
+        const double c = scorer.cost(H, chosen.cost);
+        if (c < chosen.cost) chosen.H = H, chosen.s = s0, chosen.cost = c;
+      }
+      // (refined only where the principal frames already lay it near the surface)
+      if (!(chosen.cost < 0.5 * scorer.normal_penalty())) {
+        if (debug) std::fprintf(stderr, "debug: region %d: best of %zu frame fits cost %.4f L, not refined\n", rhs[k].region, rhs[k].H.size(), chosen.cost / L);
+        continue;
+      }
+      const Polished pol = refinement.polish(chosen.H, chosen.cost, Points(0, 3), Points(0, 3));
+      if (pol.cost < chosen.cost) chosen = pol;
+      const Evidence ev = scorer.evaluate(chosen.H, chosen.s, debug);
+      if (debug) {
+        const Deformation& df = ev.deformation;
+        std::fprintf(stderr, "debug: region %d (dissimilarity %.2f): err/L %.3f score %.2f keys %.2f vol %.2f stretch %.2f..%.2f obstructed %.2f partial %.2f -> %s%s\n",
+                     rhs[k].region, rhs[k].dissimilarity, ev.error / L, ev.score, ev.key_agreement, df.volume_ratio, df.scale_min, df.scale_max, ev.obstructed,
+                     ev.partial_faces, ev.accepted() ? "accepted" : "rejected by ", ev.failed().c_str());
+      }
+      if (!ev.accepted()) continue;
+      const KdTree3 mtree(ev.mapped);
+      add_instance(chosen.H, chosen.s, ev, mtree, chosen.rms_unrefined, 0);
+    }
+    res.timings.push_back({"regions", sw.lap()});
   }
 
   // Each instance once: the better-scoring of two overlapping instances wins.

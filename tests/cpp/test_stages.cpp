@@ -10,6 +10,7 @@
 #include "merge.h"
 #include "placements.h"
 #include "refine.h"
+#include "region_fit.h"
 #include "symmetry.h"
 #include "test_util.h"
 
@@ -767,4 +768,53 @@ TEST(Description, TheFallbackReusesTheFirstPassAndDescribesTheSameTarget) {
   other = again;
   other.seed += 1;
   EXPECT_THROW(fe::describe_reusing(target, base, other), std::invalid_argument);
+}
+
+// Region fits (region_fit.h): the samples of a half-round bead on half a ring (Motor-c's, 6 mm wide,
+// 70 mm across), and a copy turned, moved and stretched unequally along its axes. One of the frame
+// fits onto the copy is the map itself (the principal frame fixes it up to the axes' senses, which
+// the fits enumerate); a copy stretched past the bounds gets none, and neither does a region of other
+// proportions (the bead squeezed 6x across its ring).
+TEST(RegionFit, AFrameFitMapsAHalfRingBeadOntoItsTurnedAndStretchedCopy) {
+  fe::Points bead(0, 3);
+  std::vector<Eigen::RowVector3d> rows;
+  for (int i = 0; i <= 90; ++i)
+    for (int j = 0; j <= 12; ++j) {
+      const double u = EIGEN_PI * i / 90.0, v = EIGEN_PI * j / 12.0;  // half the ring, half the tube
+      const double r = 32.0 + 3.0 * std::sin(v);
+      rows.emplace_back(3.0 * std::cos(v), -r * std::sin(u), r * std::cos(u));
+    }
+  bead.resize(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) bead.row(static_cast<Eigen::Index>(k)) = rows[k];
+  const Eigen::Matrix3d turn = (Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()) *
+                                Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  auto copy = [&](const Eigen::Vector3d& stretch) {
+    const Eigen::Matrix3d A = turn * stretch.asDiagonal();
+    fe::Points y(bead.rows(), 3);
+    for (Eigen::Index k = 0; k < bead.rows(); ++k) y.row(k) = (A * bead.row(k).transpose() + Eigen::Vector3d(10, -20, 5)).transpose();
+    return y;
+  };
+  const fe::RegionShape ref = fe::region_shape(bead, {});
+  EXPECT_GT(ref.sigma(1), 3 * ref.sigma(2));  // a thin bead: its thickness is the shortest axis
+  for (const Eigen::Vector3d& stretch : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1.5, 1.2, 0.8)}) {
+    const fe::Points y = copy(stretch);
+    // the copy, and an unrelated region of other proportions (the bead squeezed 6x along its ring)
+    std::vector<fe::RegionShape> targets{fe::region_shape(copy(Eigen::Vector3d(1, 1, 1.0 / 6)), {}), fe::region_shape(y, {})};
+    const std::vector<fe::RegionHypotheses> h = fe::region_hypotheses(ref, targets);
+    ASSERT_EQ(h.size(), 1u) << "stretch " << stretch.transpose();
+    EXPECT_EQ(h[0].region, 1);
+    double best = INFINITY;
+    for (const Eigen::Matrix4d& H : h[0].H) {
+      EXPECT_GT((H.topLeftCorner<3, 3>().determinant()), 0);  // proper maps only
+      double worst = 0;  // the farthest a sample lands from its own image
+      for (Eigen::Index k = 0; k < bead.rows(); ++k)
+        worst = std::max(worst, (H.topLeftCorner<3, 3>() * bead.row(k).transpose() + H.topRightCorner<3, 1>() - y.row(k).transpose()).norm());
+      best = std::min(best, worst);
+    }
+    // (stretched along its own principal axes, the copy's frame is the map's: exact)
+    EXPECT_LT(best, 1e-6 * 70) << "stretch " << stretch.transpose();
+  }
+  // stretched 4x along one axis: beyond axis_scale_max (3.2) and the anisotropy bound
+  std::vector<fe::RegionShape> far{fe::region_shape(copy(Eigen::Vector3d(4, 1, 1)), {})};
+  EXPECT_TRUE(fe::region_hypotheses(ref, far).empty());
 }
