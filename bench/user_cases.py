@@ -447,7 +447,7 @@ def motor_beads(path):
 
 
 def exhaust_corners(path):
-    """OCCT's MODERN_Exhaust_1.brep (an exhaust stub: a rounded rectangular pipe flaring into its base
+    """OCCT's MODERN_Exhaust_1.brep (an exhaust outlet: a rounded rectangular pipe flaring into its base
     flange, modelled as half of it, Debian occt-misc): the two corners where the pipe's rounded sides
     sweep down into the flange, mirror images of each other about y = 240.5. Each is the curved faces
     (cylinders and a B-spline blend, outer and inner skin) of the flare on one side of that plane. The
