@@ -99,6 +99,10 @@ def base_cases(build):
     exhaust = "/usr/share/opencascade/data/occ/MODERN_Exhaust_1.brep"
     if os.path.exists(exhaust):
         out.append(("occt_exhaust_corners", exhaust, exhaust_corners(exhaust)))
+    cooker = "/usr/share/opencascade/data/occ/MODERN_Cooker_1.brep"
+    if os.path.exists(cooker):
+        out.append(("occt_cooker_burners", cooker, cooker_burners(cooker)))
+        out.append(("occt_cooker_corners", cooker, cooker_corners(cooker)))
     out.append(("counterbores", *counterbore_plate(os.path.join(build, "models", "user_cases"))))
     out.append(("corner_step_block", *corner_step_block(os.path.join(build, "models", "user_cases"))))
     out.append(("counterbore_bosses", *counterbore_bosses(os.path.join(build, "models", "user_cases"))))
@@ -461,6 +465,55 @@ def exhaust_corners(path):
     lo = [f"Face{i}" for i in faces if s.Faces[i - 1].BoundBox.YMax <= mid]
     hi = [f"Face{i}" for i in faces if s.Faces[i - 1].BoundBox.YMin >= mid]
     return [lo, hi]
+
+
+def _faces_of_revolution_about(s, kind, radii, area_min=0.0):
+    """{(x, y) of the axis, rounded: [face numbers]} of the faces of `kind` ("Toroid" or "Cylinder") whose
+    radii (major, minor; or the radius) match `radii`, grouped by where their vertical axis stands."""
+    out = {}
+    for i, f in enumerate(s.Faces, 1):
+        g = f.Surface
+        if kind not in type(g).__name__ or f.Area < area_min:
+            continue
+        r = (g.MajorRadius, g.MinorRadius) if kind == "Toroid" else (g.Radius,)
+        if any(abs(a - b) > 1e-3 for a, b in zip(r, radii)):
+            continue
+        c = g.Center
+        out.setdefault((round(c.x, 1), round(c.y, 1)), []).append(i)
+    return out
+
+
+def cooker_burners(path):
+    """OCCT's MODERN_Cooker_1.brep (a cooker: body, worktop and a hob plate, Debian occt-misc): the four
+    hob burners, each a raised disc 10 mm across and 1 mm high on the hob plate (a R5 cylinder between
+    a concave foot fillet R5.3/r0.3 and a convex top fillet R4.7/r0.3, and its flat cap): four translated
+    copies, 15 and 20 mm apart, surfaces of revolution. The reference is the burner at the smallest
+    (x, y). Added in the twenty-eighth session; the split by name as for every case."""
+    s = Part.read(path)
+    E = {i: _edge_keys(f) for i, f in enumerate(s.Faces, 1)}
+    foot = _faces_of_revolution_about(s, "Toroid", (5.3, 0.3))
+    side = _faces_of_revolution_about(s, "Cylinder", (5.0,), area_min=10.0)
+    top = _faces_of_revolution_about(s, "Toroid", (4.7, 0.3))
+    out = []
+    for c in sorted(set(foot) & set(side) & set(top)):
+        faces = foot[c] + side[c] + top[c]
+        # the cap: the plane face bounded by the top fillet
+        caps = [j for j, f in enumerate(s.Faces, 1) if "Plane" in type(f.Surface).__name__
+                and any(E[j] & E[t] for t in top[c])]
+        out.append([f"Face{i}" for i in sorted(faces + caps)])
+    return out
+
+
+def cooker_corners(path):
+    """OCCT's MODERN_Cooker_1.brep: the four rounded corners of the hob plate (2 mm thick), each a
+    quarter of a R5 vertical cylinder 0.5 mm high under a quarter-toroidal top fillet (R4.5, r0.5):
+    copies turned by 90 and 180 degrees, tiny beside the part (7 mm across on a 110 mm cooker). The
+    reference is the corner at the smallest (x, y). Added in the twenty-eighth session; the split by
+    name as for every case."""
+    s = Part.read(path)
+    fil = _faces_of_revolution_about(s, "Toroid", (4.5, 0.5))
+    side = _faces_of_revolution_about(s, "Cylinder", (5.0,))
+    return [[f"Face{i}" for i in sorted(fil[c] + side[c])] for c in sorted(set(fil) & set(side))]
 
 
 def make_reference(shape, faces, style, work, name, scale=1.0):

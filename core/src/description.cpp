@@ -431,6 +431,20 @@ double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vec
   return distance_at_sample(t, p, j, d2);
 }
 
+double facing_surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double reach, int* nearest) {
+  *nearest = -1;
+  thread_local std::vector<int> idx;
+  thread_local std::vector<float> d2;
+  t.dense_tree->radius(p, reach, idx, d2);
+  double best = INFINITY;
+  for (std::size_t c = 0; c < idx.size(); ++c) {
+    if (n.dot(t.dense_normals.row(idx[c])) < 0.5) continue;
+    const double e = distance_at_sample(t, p, idx[c], d2[c]);
+    if (e < best) best = e, *nearest = idx[c];
+  }
+  return best;
+}
+
 // Deterministic subsample of at most n row indices.
 std::vector<Eigen::Index> stride_rows(Eigen::Index rows, Eigen::Index n) {
   std::vector<Eigen::Index> r;

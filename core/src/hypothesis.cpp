@@ -462,27 +462,43 @@ bool HypothesisScorer::bounds_ok(const Eigen::Matrix4d& H, double* scale) const 
 // counts as off the target.
 double HypothesisScorer::point_error(const Eigen::Matrix4d& H, Eigen::Index i, double s, bool capped, bool overhang) const {
   const Eigen::Vector3d x = eval_pts_.row(i);
+  const Eigen::Vector3d y = apply_transform(H, x);
   int j;
   double e;
   if (capped) {
-    e = surface_distance_capped(T_, apply_transform(H, x), normal_penalty_ * s, &j) / s;
+    e = surface_distance_capped(T_, y, normal_penalty_ * s, &j) / s;
     if (!std::isfinite(e)) return INFINITY;
   } else {
-    e = surface_distance(T_, apply_transform(H, x), &j) / s;
+    e = surface_distance(T_, y, &j) / s;
     if (!std::isfinite(e) || j < 0) return INFINITY;
   }
   const Eigen::Vector3d nm = (transform_jacobian(H, x).inverse().transpose() * eval_nrm_.row(i).transpose()).normalized();
+  facing(y, nm, s, e, j);
   // (just past the end, the nearest target sample may be the face beyond it, of another facing; a
   // sample on the surface whose normal disagrees only at a crease is not off it)
   if (overhang && !eval_open_.empty() && eval_open_[static_cast<std::size_t>(i)] &&
       (j < 0 || e > p_.accept_error * L_ || (nm.dot(T_.dense_normals.row(j)) < 0.5 && e * s > 2 * T_.dense_h))) {
-    const Eigen::Vector3d y = apply_transform(H, x);
     const int k = T_.dense_tree->nearest(y);
     if (overhangs(y, nm, k, s)) return kOverhang;
   }
   if (j < 0) return normal_penalty_;  // (capped: farther than the penalty)
   if (nm.dot(T_.dense_normals.row(j)) < 0.5) e = std::max(e, normal_penalty_);
   return e;
+}
+
+// A mapped sample on the target's surface whose nearest target sample faces away (two solids that
+// touch: the development case occt_cooker_burners, a box cut through a hob plate lying on a worktop,
+// where every fit of the burners was rejected with half the contact faces' samples at the normal
+// penalty) is measured to the coincident surface that faces its way, if one lies within two sample
+// spacings. `e` is in reference units (divided by s). A wall thinner than that is one surface too.
+void HypothesisScorer::facing(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, double s, double& e, int& j) const {
+  const double reach = 2 * T_.dense_h;
+  // (only a surface facing the opposite way: at a crease the nearest sample of the other face is not
+  // a coincident surface)
+  if (j < 0 || !(e * s <= reach) || nm.dot(T_.dense_normals.row(j)) > -0.5 || !nm.allFinite()) return;
+  int k;
+  const double f = facing_surface_distance(T_, y, nm, reach, &k);
+  if (k >= 0) e = f / s, j = k;
 }
 
 bool HypothesisScorer::point_errors(const Eigen::Matrix4d& H, double s, double sum_limit, std::vector<double>& errs, bool capped) const {
@@ -674,7 +690,13 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
     finite_map = finite_map && y.allFinite();
     ev.mapped.row(static_cast<Eigen::Index>(k)) = y;
     int j;
-    const double e = surface_distance(T_, y, &j);
+    double e = surface_distance(T_, y, &j);
+    if (std::isfinite(e) && j >= 0 && s > 0) {
+      const Eigen::Vector3d nf = (transform_jacobian(H, x).inverse().transpose() * R_.dense_normals.row(dense_rows_[k]).transpose()).normalized();
+      double es = e / s;
+      facing(y, nf, s, es, j);
+      e = es * s;
+    }
     e2[k] = std::isfinite(e) ? e * e : tol * tol * 100;
     sq += e2[k];
     err[k] = std::isfinite(e) ? e : tol * 10;

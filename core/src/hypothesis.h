@@ -130,6 +130,10 @@ class HypothesisScorer {
   /// normal, and a rib sunk into a plate lies behind the plate's face: neither overhangs. Such samples
   /// are left out of the errors, the score and the RMS, up to Params::max_overhang of them.
   bool overhangs(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, int j, double s) const;
+  /// Where the nearest target sample j to the mapped sample y (mapped normal nm, error e in reference
+  /// units) faces the opposite way while y lies on the surface, the coincident surface within two
+  /// sample spacings that faces nm's way, if there is one (touching solids): e and j replaced by its.
+  void facing(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, double s, double& e, int& j) const;
   /// Per reference dense sample: on a face that reaches the border (overhangs() may apply).
   bool open_dense(Eigen::Index i) const { return !open_dense_.empty() && open_dense_[static_cast<std::size_t>(i)]; }
 

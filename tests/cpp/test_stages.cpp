@@ -112,6 +112,53 @@ TEST(DescriptionStage, KeyPointsInOneSpotCallForTheRidgeAndRutFallback) {
   }
 }
 
+// Two solids that touch (a plate on a worktop) are sampled on both contact faces, one on the other,
+// facing opposite ways: the nearest target sample to a point there is of either facing.
+// facing_surface_distance finds the one that faces the asked way, where there is one.
+TEST(DescriptionStage, OnTouchingFacesTheSampleFacingTheAskedWayIsFound) {
+  const auto bump = [](int i, int j) {
+    const double x = 0.5 * i, y = 0.5 * j, r2 = (x - 10) * (x - 10) + (y - 10) * (y - 10);
+    return Eigen::Vector3d(x, y, 3.0 * std::exp(-r2 / (2 * 6.25)));
+  };
+  const fe::TriangleMesh top = fe_test::grid_mesh(41, bump);
+  fe::TriangleMesh both = top;  // the same surface again, facing the other way
+  both.triangles.resize(2 * top.triangles.rows(), 3);
+  both.triangles.topRows(top.triangles.rows()) = top.triangles;
+  both.triangles.bottomRows(top.triangles.rows()) = top.triangles.rowwise().reverse();
+  both.face_ids = Eigen::VectorXi::Zero(both.triangles.rows());
+  const double L = top.diagonal();
+  const fe::ShapeDescription one = fe::describe(top, fe::ShapeDescription::Role::Target, L, fe::Params{});
+  const fe::ShapeDescription two = fe::describe(both, fe::ShapeDescription::Role::Target, L, fe::Params{});
+  const auto& T = two.impl();
+  const double reach = 2 * T.dense_h;
+  int away = 0, checked = 0;
+  for (int i = 4; i < 37; i += 3)
+    for (int j = 4; j < 37; j += 3) {
+      const Eigen::Vector3d p = bump(i, j);  // on the surface
+      int n;
+      fe::surface_distance(T, p, &n);
+      ASSERT_GE(n, 0);
+      const Eigen::Vector3d nn = T.dense_normals.row(n);
+      const Eigen::Vector3d facing(0, 0, nn.z() > 0 ? -1.0 : 1.0);  // the other way
+      away += nn.z() < 0 ? 1 : 0;
+      int k;
+      const double d = fe::facing_surface_distance(T, p, facing, reach, &k);
+      ASSERT_GE(k, 0) << "at (" << p.transpose() << ")";
+      EXPECT_GT(facing.dot(T.dense_normals.row(k)), 0.5);
+      EXPECT_LT(d, T.dense_h);  // (the two faces are sampled apart: its nearest sample may be a spacing off)
+      ++checked;
+      // one surface alone has nothing facing the other way there
+      int m;
+      fe::surface_distance(one.impl(), p, &m);
+      const Eigen::Vector3d other(0, 0, one.impl().dense_normals(m, 2) > 0 ? -1.0 : 1.0);
+      EXPECT_EQ(fe::facing_surface_distance(one.impl(), p, other, reach, &m), INFINITY);
+      EXPECT_EQ(m, -1);
+    }
+  EXPECT_GT(checked, 100);
+  EXPECT_GT(away, 0);  // the nearest sample faced down at some of them
+  EXPECT_LT(away, checked);
+}
+
 TEST(SymmetryStage, ACylinderIsAxisymmetricABoxIsNot) {
   fe::Points x, n;
   const Eigen::Vector3d point(1, 2, 3), axis(0.2, -0.3, 1.0);
