@@ -109,9 +109,9 @@ double surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& 
 double surface_distance_capped(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, double cap, int* nearest);
 
 /// Where two solids touch (an assembly's contact faces: a plate lying on a worktop), both faces are
-/// sampled, one on the other with opposite normals, and the nearest sample to p is either. Given that
-/// nearest sample faces away from n, the nearest sample within `reach` of p that
-/// faces n (>= 0.5): its surface_distance, its index in *nearest; +inf and -1 when none does.
+/// sampled, one on the other with opposite normals, and the nearest sample to p is either. The nearest
+/// sample within `reach` of p that faces n (normal . n >= 0.5): its surface_distance, its index in
+/// *nearest; +inf and -1 when none does.
 double facing_surface_distance(const ShapeDescription::Impl& t, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double reach, int* nearest);
 
 /// Deterministic subsample of at most n of the row indices 0..rows-1 (evenly strided).

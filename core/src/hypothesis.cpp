@@ -486,11 +486,11 @@ double HypothesisScorer::point_error(const Eigen::Matrix4d& H, Eigen::Index i, d
   return e;
 }
 
-// A mapped sample on the target's surface whose nearest target sample faces away (two solids that
-// touch: the development case occt_cooker_burners, a box cut through a hob plate lying on a worktop,
-// where every fit of the burners was rejected with half the contact faces' samples at the normal
-// penalty) is measured to the coincident surface that faces its way, if one lies within two sample
-// spacings. `e` is in reference units (divided by s). A wall thinner than that is one surface too.
+// A mapped sample on the target's surface whose nearest target sample faces the opposite way (two
+// solids that touch: the development case occt_cooker_burners, a box cut through a hob plate lying
+// on a worktop, where every fit of the burners was rejected with half the contact faces' samples at
+// the normal penalty) is measured to the coincident surface that faces its way, if one lies within
+// two sample spacings. `e` is in reference units (divided by s). A wall thinner than that is one surface too.
 void HypothesisScorer::facing(const Eigen::Vector3d& y, const Eigen::Vector3d& nm, double s, double& e, int& j) const {
   const double reach = 2 * T_.dense_h;
   // (only a surface facing the opposite way: at a crease the nearest sample of the other face is not
@@ -691,11 +691,14 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
     ev.mapped.row(static_cast<Eigen::Index>(k)) = y;
     int j;
     double e = surface_distance(T_, y, &j);
-    if (std::isfinite(e) && j >= 0 && s > 0) {
-      const Eigen::Vector3d nf = (transform_jacobian(H, x).inverse().transpose() * R_.dense_normals.row(dense_rows_[k]).transpose()).normalized();
-      double es = e / s;
-      facing(y, nf, s, es, j);
-      e = es * s;
+    Eigen::Vector3d nm = Eigen::Vector3d::Constant(NAN);  // the mapped normal, where y is on the target
+    if (std::isfinite(e) && j >= 0) {
+      nm = (transform_jacobian(H, x).inverse().transpose() * R_.dense_normals.row(dense_rows_[k]).transpose()).normalized();
+      if (s > 0) {
+        double es = e / s;
+        facing(y, nm, s, es, j);
+        e = es * s;
+      }
     }
     e2[k] = std::isfinite(e) ? e * e : tol * tol * 100;
     sq += e2[k];
@@ -709,9 +712,7 @@ Evidence HypothesisScorer::evaluate(const Eigen::Matrix4d& H, double s, bool all
       }
     }
     if (j < 0 || !(e <= tol)) continue;
-    const Eigen::Vector3d nr = R_.dense_normals.row(dense_rows_[k]);
-    const Eigen::Vector3d nm = transform_jacobian(H, x).inverse().transpose() * nr;
-    is_on[k] = nm.normalized().dot(T_.dense_normals.row(j)) > 0.5;
+    is_on[k] = nm.dot(T_.dense_normals.row(j)) > 0.5;
   }
   if (!dist.empty()) keep_truncations(err, face, dist, tol, tol * 10);
   int on = 0, over = 0;
