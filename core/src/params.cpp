@@ -88,7 +88,7 @@ const std::vector<Entry>& entries() {
       {kReference, "mirror", &Params::mirror, "", "also search the mirror image of the reference (skipped when the reference is its own mirror image); such matches have mirrored = true and a negative determinant", 0, 1},
       {kReference, "detect_cut_faces", &Params::detect_cut_faces, "", "a closed reference (a solid cut out of a part with a box) is searched without its cut faces: planar faces on its bounding box that reach another side of the box", 0, 1},
       {kReference, "cut_faces_on_target", &Params::cut_faces_on_target, "", "where a box-cut reference sits on the target unmoved (cut out of that very part), its box faces that lie on the target's surface are the part's own faces (the box reached past the part there) and are kept, not cut", 0, 1},
-      {kResult, "face_coverage", &Params::face_coverage, "", "a target face is listed if this fraction of its area is covered by the mapped reference", 0, 1},
+      {kResult, "face_coverage", &Params::face_coverage, "", "a target face is listed if this fraction of its area is covered by the mapped reference (on a B-rep part, a fit that lists no face is dropped)", 0, 1},
       {kResult, "max_overlap", &Params::max_overlap, "", "instances sharing more than this fraction of their region are reported once", 0, 1},
       {kRun, "seed", &Params::seed, "", "seed of sampling and RANSAC; same input and seed give the same output", 0, 1.8e19},
       {kRun, "threads", &Params::threads, "count", "worker threads for SHOT descriptors; 0 = all cores", 0, 1024},
