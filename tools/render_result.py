@@ -2,7 +2,9 @@
 
 Run under a virtual display (see docs): FE_TARGET=part.step FE_RESULT=result.json FE_PNG=out.png \
   QTWEBENGINE_DISABLE_SANDBOX=1 xvfb-run -a -s "-screen 0 1280x1024x24" freecad tools/render_result.py
-Each instance's faces get their own color; the rest of the part is grey. Exits the GUI itself."""
+Each instance's faces get their own color; the rest of the part is grey. Exits the GUI itself.
+FE_VIEW=top looks down the z axis (default isometric); FE_FIT=matches fits the view to the
+instances' faces instead of the whole part; FE_WIDTH, FE_HEIGHT: the image's size in pixels."""
 import json
 import os
 import sys
@@ -30,8 +32,18 @@ def main():
             colors[face - 1] = PALETTE[i % len(PALETTE)] + (0.0,)
     obj.ViewObject.DiffuseColor = colors
     view = Gui.ActiveDocument.ActiveView
-    view.viewIsometric()
+    getattr(view, {"top": "viewTop", "isometric": "viewIsometric"}[os.environ.get("FE_VIEW", "isometric")])()
     view.fitAll()
+    faces = sorted({f for m in matches for f in m["faces"]})
+    if os.environ.get("FE_FIT") == "matches" and faces:  # close up on the instances' faces
+        fit = doc.addObject("Part::Feature", "Fit")
+        fit.Shape = Part.Compound([obj.Shape.Faces[f - 1] for f in faces])
+        doc.recompute()
+        obj.ViewObject.Visibility = False
+        Gui.updateGui()
+        view.fitAll()
+        obj.ViewObject.Visibility = True
+        fit.ViewObject.Visibility = False
     Gui.updateGui()
     view.saveImage(png, int(os.environ.get("FE_WIDTH", "1200")), int(os.environ.get("FE_HEIGHT", "700")), "White")
     print("render_result: wrote", png, "with", len(matches), "instances")
