@@ -28,7 +28,7 @@ def test_hob_corners_from_an_stl_region_are_found_and_fits_on_no_face_are_droppe
     ref = fx.read_shape(stl)
     result = fx.extract(ref, fx.read_target(COOKER, ref))
     r = json.loads(result.to_json())
-    found, false, _, hit, labels = U.score(r, shape, corners)
+    _, false, _, hit, _ = U.score(r, shape, corners)
     assert all(hit), f"corners found: {hit}"
     assert all(m["faces"] for m in r["matches"]), "every match claims a face of the part"
     dropped = [w for w in r["warnings"] if "fit(s) dropped that cover no face" in w]
