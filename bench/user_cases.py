@@ -826,7 +826,8 @@ def main():
                                             "rms": m["rms_error"] / (L * m["scale"]), "rms_unrefined": m["rms_error_unrefined"] / (L * m["scale"]),
                                             "keys": m.get("key_agreement"),
                                             "stretch": m.get("stretch"), "perspective": m.get("perspective"),
-                                            "faces": len(m["faces"]), "pairs": m["pairs"], "scale": m["scale"]}
+                                            "faces": len(m["faces"]), "pairs": m["pairs"], "scale": m["scale"],
+                                            "face_shares": [s for _, s in m.get("face_shares", [])]}
                                            for m, ok in zip(r["matches"], labels)]
                     row.update(found=tp, false=fp, mirrored=mir, cut_faces=len(r["reference"].get("cut_faces", [])),
                                hit=[1 if h else 0 for h in hit])

@@ -22,6 +22,7 @@ void bind_result(py::module_& m) {
       .def_readonly("bbox_min", &fe::Match::bbox_min)
       .def_readonly("bbox_max", &fe::Match::bbox_max)
       .def_readonly("faces", &fe::Match::faces, "1-based target FaceN covered (B-rep input)")
+      .def_readonly("face_shares", &fe::Match::face_shares, "(FaceN, covered share of its area) for every face covered for at least 5 % (B-rep input)")
       .def_readonly("triangles", &fe::Match::triangles, "0-based target triangles covered (mesh input)")
       .def_readonly("pairs", &fe::Match::pairs)
       .def_readonly("key_agreement", &fe::Match::key_agreement, "fraction of reference key points landing near target key points of similar shape index")

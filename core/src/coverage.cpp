@@ -3,6 +3,8 @@
 
 #include <Eigen/Geometry>  // .cross()
 
+#include <algorithm>
+
 namespace fe {
 
 bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach, double merge_reach, const ShapeDescription::Impl& T,
@@ -62,10 +64,12 @@ bool cover_target(const Points& mapped, const KdTree3& mapped_tree, double reach
     if (f > 0 && f <= tmesh.num_faces) face_cov[static_cast<std::size_t>(f)] += area;
     if (!tmesh.from_brep()) mt.triangles.push_back(static_cast<int>(t));
   }
-  for (int f = 1; f <= tmesh.num_faces; ++f)
-    if (face_area[static_cast<std::size_t>(f)] > 0 &&
-        face_cov[static_cast<std::size_t>(f)] >= face_coverage * face_area[static_cast<std::size_t>(f)])
-      mt.faces.push_back(f);
+  for (int f = 1; f <= tmesh.num_faces; ++f) {
+    const double area = face_area[static_cast<std::size_t>(f)], covered = face_cov[static_cast<std::size_t>(f)];
+    if (!(area > 0)) continue;
+    if (covered >= face_coverage * area) mt.faces.push_back(f);
+    if (covered >= kFaceShareFloor * area) mt.face_shares.emplace_back(f, std::min(1.0, covered / area));
+  }
   return true;
 }
 

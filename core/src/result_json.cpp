@@ -33,6 +33,9 @@ std::string result_to_json(const Result& r, int indent) {
     o["center"] = vec(m.center);
     o["bbox"] = {vec(m.bbox_min), vec(m.bbox_max)};
     o["faces"] = m.faces;
+    nlohmann::ordered_json shares = nlohmann::ordered_json::array();
+    for (const auto& [f, share] : m.face_shares) shares.push_back({f, std::round(1000 * share) / 1000});
+    o["face_shares"] = shares;
     if (!m.triangles.empty()) o["triangles"] = m.triangles;
     o["pairs"] = m.pairs;
     o["key_agreement"] = num(m.key_agreement);

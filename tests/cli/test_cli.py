@@ -203,6 +203,14 @@ class Cli(unittest.TestCase):
             self.assertEqual(len(m["center"]), 3)
             self.assertEqual(len(m["bbox"]), 2)
             self.assertTrue(all(isinstance(f, int) and f >= 1 for f in m["faces"]))
+            # every face the rib reaches into, with its covered share; the listed faces are the ones
+            # covered for face_coverage (0.5) or more, and a rib covers its own top whole
+            shares = dict(m["face_shares"])
+            self.assertEqual([f for f, _ in m["face_shares"]], sorted(shares))
+            self.assertTrue(all(0.05 <= s <= 1 for s in shares.values()), shares)
+            self.assertTrue(set(m["faces"]) <= set(shares), (m["faces"], shares))
+            self.assertTrue(all((shares[f] >= 0.4995) == (f in m["faces"]) for f in shares), (m["faces"], shares))
+            self.assertGreaterEqual(max(shares.values()), 0.9, shares)
             self.assertGreater(m["pairs"], 0)
         self.assertGreater(j["timings"]["total"], 0)
 

@@ -31,6 +31,10 @@ def test_hob_corners_from_an_stl_region_are_found_and_fits_on_no_face_are_droppe
     _, false, _, hit, _ = U.score(r, shape, corners)
     assert all(hit), f"corners found: {hit}"
     assert all(m["faces"] for m in r["matches"]), "every match claims a face of the part"
+    # the bindings give each face's covered share as the JSON does, the listed faces among them
+    for m, j in zip(result.matches, r["matches"]):
+        assert [f for f, _ in m.face_shares] == [f for f, _ in j["face_shares"]]
+        assert set(j["faces"]) <= {f for f, s in m.face_shares if s >= 0.4995}
     dropped = [w for w in r["warnings"] if "fit(s) dropped that cover no face" in w]
     assert dropped, r["warnings"]
     assert false < 7, f"{false} false matches"

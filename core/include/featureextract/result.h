@@ -10,6 +10,9 @@
 
 namespace fe {
 
+/// Match::face_shares lists the faces covered for at least this share of their area.
+constexpr double kFaceShareFloor = 0.05;
+
 struct Match {
   Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< H: reference -> target, h44 = 1
   double score = 0;       ///< fraction of mapped reference samples lying on the target, in [0, 1]
@@ -21,6 +24,10 @@ struct Match {
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero();
   Eigen::Vector3d bbox_max = Eigen::Vector3d::Zero();
   std::vector<int> faces;      ///< 1-based target FaceN covered by the mapped reference (B-rep input)
+  /// (FaceN, share of its area covered) for every target face covered for at least kFaceShareFloor
+  /// of its area, by face (B-rep input): `faces` are those at Params::face_coverage or more, the rest
+  /// are the faces the instance only reaches into (a fillet beside it)
+  std::vector<std::pair<int, double>> face_shares;
   std::vector<int> triangles;  ///< 0-based target triangles covered (mesh input)
   int pairs = 0;               ///< key point pairs consistent with H
   double key_agreement = 0;    ///< fraction of reference key points landing near target key points of similar SI
