@@ -68,6 +68,16 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
     bool affine = false;
     double cost = INFINITY;
   };
+  // A draw's candidates (the pairs around its first pair that agree with it) depend on the first pair
+  // alone, so each first pair's list is made once and kept: most of a search's draws pick a first
+  // pair drawn before (thousands of draws over hundreds of pairs), and making the list, a radius
+  // query and a test per neighbour, was a tenth of CTC-02's samples, on the thread that draws while
+  // the others score. Same lists in the same order, so the same draws. Kept up to kCandidateCache
+  // entries in all (past that, lists are made each time as before).
+  constexpr std::size_t kCandidateCache = std::size_t{1} << 22;
+  std::vector<std::vector<int>> candidates_of(static_cast<std::size_t>(n));
+  std::vector<char> listed(static_cast<std::size_t>(n), 0);
+  std::size_t cached = 0;
   auto draw = [&](Draw& d) {
     d.ok = false;
     const int first = static_cast<int>(rng() % static_cast<std::uint64_t>(n));
@@ -80,28 +90,37 @@ RansacResult ransac_projective(const Points& ref, const Points& tgt, const std::
       rmin = std::max(rmin, sc / 2);
       rmax = rmax > 0 ? std::min(rmax, 2 * sc) : 2 * sc;
     }
-    if (locality > 0) {
-      tree.radius(tgt.row(first).transpose(), locality, near, d2);
-    } else {
-      near.resize(static_cast<std::size_t>(n));
-      for (int i = 0; i < n; ++i) near[static_cast<std::size_t>(i)] = i;
-    }
-    cand.clear();
-    const double cos_max = std::cos(o.max_angle);
-    for (int c : near) {
-      if (c == first || !consistent(first, c)) continue;
-      if (o.rotations) {
-        const Eigen::Vector3d pr = (*o.rotations)[static_cast<std::size_t>(first)] * (ref.row(c) - ref.row(first)).transpose();
-        const Eigen::Vector3d dt = (tgt.row(c) - tgt.row(first)).transpose();
-        if (!(pr.dot(dt) >= cos_max * pr.norm() * dt.norm())) continue;
+    const std::size_t fi = static_cast<std::size_t>(first);
+    if (!listed[fi]) {
+      if (locality > 0) {
+        tree.radius(tgt.row(first).transpose(), locality, near, d2);
+      } else {
+        near.resize(static_cast<std::size_t>(n));
+        for (int i = 0; i < n; ++i) near[static_cast<std::size_t>(i)] = i;
       }
-      cand.push_back(c);
+      cand.clear();
+      const double cos_max = std::cos(o.max_angle);
+      for (int c : near) {
+        if (c == first || !consistent(first, c)) continue;
+        if (o.rotations) {
+          const Eigen::Vector3d pr = (*o.rotations)[fi] * (ref.row(c) - ref.row(first)).transpose();
+          const Eigen::Vector3d dt = (tgt.row(c) - tgt.row(first)).transpose();
+          if (!(pr.dot(dt) >= cos_max * pr.norm() * dt.norm())) continue;
+        }
+        cand.push_back(c);
+      }
+      if (cached + cand.size() <= kCandidateCache) {
+        candidates_of[fi] = cand;
+        listed[fi] = 1;
+        cached += cand.size();
+      }
     }
-    if (cand.size() < 4) return;
+    const std::vector<int>& cand_here = listed[fi] ? candidates_of[fi] : cand;
+    if (cand_here.size() < 4) return;
     std::array<int, 5> s{{first, -1, -1, -1, -1}};
     int filled = 1;
     for (int attempt = 0; attempt < 60 && filled < 5; ++attempt) {
-      const int c = cand[rng() % cand.size()];
+      const int c = cand_here[rng() % cand_here.size()];
       bool ok = true;
       for (int k = 1; k < filled && ok; ++k) ok = c != s[static_cast<std::size_t>(k)] && consistent(c, s[static_cast<std::size_t>(k)]);
       if (ok) s[static_cast<std::size_t>(filled++)] = c;
