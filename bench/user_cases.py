@@ -568,10 +568,12 @@ def make_reference(shape, faces, style, work, name, scale=1.0):
         # OpenCASCADE's boolean can fail on a part whose solid intersects itself (MODERN_Sink_1: "BOPAlgo
         # SelfIntersect") and return the box's air instead of the part: a reference with no feature,
         # which a user could not search either. Such a run is reported as having no reference.
-        lost = [] if style != "box" else [f for f in faces if ref.distToShape(Part.Vertex(shape.getElement(f).tessellate(0.05 * b.DiagonalLength)[0][0]))[0]
-                > 1e-3 * b.DiagonalLength]
-        if 2 * len(lost) > len(faces):
-            raise ValueError(f"the box cut lost {len(lost)} of the feature's {len(faces)} faces (OpenCASCADE's common failed on this part)")
+        if style == "box":
+            kept = [ref.distToShape(Part.Vertex(shape.getElement(f).tessellate(0.05 * b.DiagonalLength)[0][0]))[0]
+                    <= 1e-3 * b.DiagonalLength for f in faces]
+            if 2 * kept.count(False) > len(faces):
+                raise ValueError(f"the box cut lost {kept.count(False)} of the feature's {len(faces)} faces "
+                                 "(OpenCASCADE's common failed on this part)")
     if scale != 1.0:
         ref = ref.copy()
         ref.scale(scale, b.Center)
