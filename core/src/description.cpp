@@ -3,6 +3,7 @@
 #include "description.h"
 
 #include "curvature.h"
+#include "skirt.h"
 
 #include "featureextract/geometry.h"
 
@@ -10,8 +11,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <unordered_map>
 
@@ -142,7 +146,7 @@ namespace {
 
 // Steps 1 and 2 for a new description: dense and sparse samples, their normals, the kd-tree, the
 // sparse samples' shape index.
-void sample_and_index(const TriangleMesh& mesh, double L, const Params& p, const ProgressFn& progress, const std::string& who,
+void sample_and_index(const TriangleMesh& mesh, const TriangleMesh* skirt, double L, const Params& p, const ProgressFn& progress, const std::string& who,
                       const std::string& name, ShapeDescription::Impl* d, Stopwatch& sw) {
   // Step 1: dense and sparse samples.
   report(progress, who + ": sampling", 0);
@@ -169,22 +173,50 @@ void sample_and_index(const TriangleMesh& mesh, double L, const Params& p, const
       [&] { sparse = sample_surface(mesh, d->sparse_h, p.seed + 1); });
   d->box_min = mesh.vertices.colwise().minCoeff();
   d->box_max = mesh.vertices.colwise().maxCoeff();
+  // A reference's open border (picked faces, a cut reference without its cut faces, a region of an
+  // STL) is continued by its skirt (skirt.h) in the support of normals, shape index and descriptors:
+  // on the part the surface goes on past it, and a support that stops there describes another shape.
+  // The skirt is support only: no sample on it is a key point, and matches are judged without it.
+  Samples on_skirt, support;  // the skirt's samples; the dense samples and those, when there is a skirt
+  std::shared_ptr<KdTree3> support_tree;
+  if (skirt && skirt->triangles.rows() > 0) {
+    on_skirt = sample_surface(*skirt, d->dense_h, p.seed + 2);
+    auto both = [](const auto& a, const auto& b) {
+      std::decay_t<decltype(a)> c(a.rows() + b.rows(), a.cols());
+      c << a, b;
+      return c;
+    };
+    support = {both(d->dense.points, on_skirt.points), both(d->dense.normals, on_skirt.normals),
+               both(d->dense.face_ids, on_skirt.face_ids), both(d->dense.triangle_ids, Eigen::VectorXi::Constant(on_skirt.points.rows(), -1))};
+    support_tree = std::make_shared<KdTree3>(support.points);
+    if (std::getenv("FE_DEBUG"))
+      std::fprintf(stderr, "debug: reference skirt: %ld triangles, %ld samples\n", static_cast<long>(skirt->triangles.rows()), static_cast<long>(on_skirt.size()));
+  }
+  const bool skirted = support_tree != nullptr;
+  const KdTree3& tree = skirted ? *support_tree : *d->dense_tree;
+  const Samples& sup = skirted ? support : d->dense;
   d->timings.push_back({who + "_sampling", sw.lap()});
 
   // Step 2a: normals (PCA over dense samples, oriented by the triangles).
   report(progress, who + ": normals", 0);
   const double rn = p.normal_radius * L;
-  d->dense_normals = estimate_normals(*d->dense_tree, d->dense, d->dense, rn);
-  d->sparse_normals = estimate_normals(*d->dense_tree, d->dense, sparse, rn);
+  d->dense_normals = estimate_normals(tree, sup, d->dense, rn);
+  d->sparse_normals = estimate_normals(tree, sup, sparse, rn);
+  if (skirted) {
+    d->support_normals.resize(support.points.rows(), 3);
+    d->support_normals << d->dense_normals, estimate_normals(tree, sup, on_skirt, rn);
+    d->support_points = support.points;
+  }
+  const Points& sup_n = skirted ? d->support_normals : d->dense_normals;
   d->timings.push_back({who + "_normals", sw.lap()});
 
   // Step 2b: shape index at sparse samples.
   report(progress, who + ": shape index", 0);
-  const Eigen::MatrixX2d k = principal_curvatures(*d->dense_tree, d->dense.points, d->dense_normals, sparse.points, d->sparse_normals, p.curvature_radius * L);
+  const Eigen::MatrixX2d k = principal_curvatures(tree, sup.points, sup_n, sparse.points, d->sparse_normals, p.curvature_radius * L);
   // Sharp creases (machined features: planes meeting at edges and corners) look planar to the quadric
   // fit over same-side neighbours; there the crease's own shape index is used, offset so that sharp
   // and filleted shapes stay apart (kCreaseShapeIndex).
-  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(*d->dense_tree, d->dense, sparse, p.curvature_radius * L)
+  const Eigen::VectorXd crease = p.crease_key_points ? crease_shape_index(tree, sup, sparse, p.curvature_radius * L)
                                                      : Eigen::VectorXd::Constant(k.rows(), std::numeric_limits<double>::quiet_NaN());
   d->sparse_si.resize(k.rows());
   for (Eigen::Index i = 0; i < k.rows(); ++i) {
@@ -222,9 +254,15 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
     d->sparse_points = base->sparse_points;
     d->sparse_normals = base->sparse_normals;
     d->sparse_si = base->sparse_si;
+    d->support_points = base->support_points;
+    d->support_normals = base->support_normals;
     d->warnings = base->warnings;
   } else {
-    sample_and_index(mesh, L, p, progress, who, name, d.get(), sw);
+    // the skirt (skirt.h) at least as wide as the largest SHOT support
+    std::unique_ptr<TriangleMesh> skirt;
+    if (is_ref && p.border_skirt)
+      skirt = std::make_unique<TriangleMesh>(border_skirt(mesh, p.shot_radius * L * std::pow(p.shot_radius_ratio, p.shot_radii - 1)));
+    sample_and_index(mesh, skirt.get(), L, p, progress, who, name, d.get(), sw);
   }
 
   // Step 3: key points.
@@ -270,8 +308,11 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
     return !progress || progress(who + ": SHOT descriptors", static_cast<double>(r + 1) / static_cast<double>(radii.size()));
   };
   ShotSet shot;
+  const bool skirted = d->support_points.rows() > 0;
+  const Points& support = skirted ? d->support_points : d->dense.points;
+  const Points& support_normals = skirted ? d->support_normals : d->dense_normals;
   if (!base) {
-    shot = compute_shot(keys, key_n, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, after_radius);
+    shot = compute_shot(keys, key_n, support, support_normals, d->dense_h, radii, p.threads, after_radius);
   } else {
     // A key point's descriptors depend on it and the support only: the base's rows are copied, and
     // SHOT runs on the key points the base does not have (the ridge and rut points).
@@ -285,7 +326,7 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
       fk.row(static_cast<Eigen::Index>(a)) = keys.row(fresh[a]);
       fn.row(static_cast<Eigen::Index>(a)) = key_n.row(fresh[a]);
     }
-    const ShotSet computed = compute_shot(fk, fn, d->dense.points, d->dense_normals, d->dense_h, radii, p.threads, after_radius);
+    const ShotSet computed = compute_shot(fk, fn, support, support_normals, d->dense_h, radii, p.threads, after_radius);
     const Eigen::Index K = keys.rows();
     shot.desc.resize(K, computed.desc.cols());
     shot.valid.resize(K, computed.valid.cols());

@@ -28,6 +28,9 @@ struct ShapeDescription::Impl {
   double dense_h = 0, sparse_h = 0;
   Samples dense;
   Points dense_normals;  // PCA normals of the dense samples
+  // a reference with an open border (border_skirt): the dense samples and its skirt's (skirt.h), the
+  // support of its normals, shape index and SHOT, and their normals; empty otherwise
+  Points support_points, support_normals;
   std::shared_ptr<KdTree3> dense_tree;
   Points sparse_points;
   Points sparse_normals;          // PCA normals of the sparse samples

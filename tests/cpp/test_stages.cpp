@@ -5,12 +5,16 @@
 #include "curvature.h"
 #include "description.h"
 #include "featureextract/extract.h"
+#include "featureextract/geometry.h"
 #include "featureextract/io.h"
+#include "featureextract/reference.h"
 #include "hypothesis.h"
 #include "merge.h"
 #include "placements.h"
 #include "refine.h"
 #include "region_fit.h"
+#include "shot.h"
+#include "skirt.h"
 #include "symmetry.h"
 #include "test_util.h"
 
@@ -864,4 +868,91 @@ TEST(RegionFit, AFrameFitMapsAHalfRingBeadOntoItsTurnedAndStretchedCopy) {
   // stretched 4x along one axis: beyond axis_scale_max (3.2) and the anisotropy bound
   std::vector<fe::RegionShape> far{fe::region_shape(copy(Eigen::Vector3d(4, 1, 1)), {})};
   EXPECT_TRUE(fe::region_hypotheses(ref, far).empty());
+}
+
+namespace {
+
+double mesh_area_of(const fe::TriangleMesh& m) {
+  double a = 0;
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const Eigen::Vector3d p = m.vertices.row(m.triangles(t, 0)), q = m.vertices.row(m.triangles(t, 1)), r = m.vertices.row(m.triangles(t, 2));
+    a += 0.5 * (q - p).cross(r - p).norm();
+  }
+  return a;
+}
+
+}  // namespace
+
+// A flat square picked out of a larger plane: its skirt goes on in the square's plane, facing the way
+// it faces, and is one strip round it, the corners included: the 4 x 4 square with a skirt 1 wide
+// tiles the 6 x 6 square around it exactly.
+TEST(SkirtStage, AFlatPatchGoesOnInItsOwnPlaneRoundItsWholeBorder) {
+  const fe::TriangleMesh m = fe_test::grid_mesh(5, [](int i, int j) { return Eigen::Vector3d(i, j, 0); });
+  const fe::TriangleMesh s = fe::border_skirt(m, 1.0);
+  ASSERT_EQ(s.triangles.rows(), 2 * 16);  // two triangles per open edge
+  EXPECT_NEAR(s.vertices.col(2).cwiseAbs().maxCoeff(), 0.0, 1e-12);
+  EXPECT_NEAR(s.vertices.col(0).minCoeff(), -1.0, 1e-12);
+  EXPECT_NEAR(s.vertices.col(0).maxCoeff(), 5.0, 1e-12);
+  EXPECT_NEAR(s.vertices.col(1).minCoeff(), -1.0, 1e-12);
+  EXPECT_NEAR(s.vertices.col(1).maxCoeff(), 5.0, 1e-12);
+  EXPECT_NEAR(mesh_area_of(s), 36.0 - 16.0, 1e-9);
+  for (Eigen::Index t = 0; t < s.triangles.rows(); ++t) {
+    const Eigen::Vector3d p = s.vertices.row(s.triangles(t, 0)), q = s.vertices.row(s.triangles(t, 1)), r = s.vertices.row(s.triangles(t, 2));
+    EXPECT_GT((q - p).cross(r - p).z(), 0) << "skirt triangle " << t << " faces away from the patch";
+    // no skirt triangle lies over the patch
+    const Eigen::Vector3d c = (p + q + r) / 3;
+    EXPECT_FALSE(c.x() > 0 && c.x() < 4 && c.y() > 0 && c.y() < 4) << "skirt triangle " << t << " over the patch";
+  }
+}
+
+TEST(SkirtStage, AClosedSurfaceHasNone) {
+  fe::TriangleMesh m;  // a tetrahedron, outward
+  m.vertices.resize(4, 3);
+  m.vertices << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  m.triangles.resize(4, 3);
+  m.triangles << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  m.face_ids = Eigen::VectorXi::Zero(4);
+  EXPECT_EQ(fe::border_skirt(m, 1.0).triangles.rows(), 0);
+}
+
+// The mechanism the skirt is for: a bump picked out of a plate without the plate (an open shell) is
+// described, near its border, as the picked surface alone; on the part the plate goes on round it.
+// Continued by its skirt, the descriptors near the border come much closer to the part's own there.
+TEST(SkirtStage, DescriptorsNearAPickedBorderComeCloserToThePartsOwn) {
+  auto height = [](double x, double y) { return 2.0 * std::exp(-((x - 10) * (x - 10) + (y - 10) * (y - 10)) / 8.0); };
+  const fe::TriangleMesh part = fe_test::grid_mesh(81, [&](int i, int j) {
+    const double x = 0.25 * i, y = 0.25 * j;
+    return Eigen::Vector3d(x, y, height(x, y));
+  });
+  // the bump: the part's triangles within 6 of its top (where it is nearly flat: 2 degrees)
+  std::vector<char> drop(static_cast<std::size_t>(part.triangles.rows()), 0);
+  for (Eigen::Index t = 0; t < part.triangles.rows(); ++t) {
+    const Eigen::Vector3d c = (part.vertices.row(part.triangles(t, 0)) + part.vertices.row(part.triangles(t, 1)) + part.vertices.row(part.triangles(t, 2))) / 3;
+    drop[static_cast<std::size_t>(t)] = std::hypot(c.x() - 10, c.y() - 10) > 6;
+  }
+  const fe::TriangleMesh bump = fe::without_triangles(part, drop);
+  const double h = 0.1;
+  const std::vector<double> radii = {2.0, 2.5};
+  const fe::Samples on_part = fe::sample_surface(part, h, 1), on_bump = fe::sample_surface(bump, h, 1);
+  const fe::Samples on_skirt = fe::sample_surface(fe::border_skirt(bump, radii.back()), h, 2);
+  fe::Points skirted(on_bump.points.rows() + on_skirt.points.rows(), 3), skirted_n(skirted.rows(), 3);
+  skirted << on_bump.points, on_skirt.points;
+  skirted_n << on_bump.normals, on_skirt.normals;
+  // key points on the bump's flank, 5 from its top: 1 from the border
+  fe::Points keys(8, 3), normals(8, 3);
+  for (int k = 0; k < 8; ++k) {
+    const double a = 2 * M_PI * k / 8, x = 10 + 5 * std::cos(a), y = 10 + 5 * std::sin(a), e = 1e-4;
+    const Eigen::Vector3d n = Eigen::Vector3d(-(height(x + e, y) - height(x - e, y)) / (2 * e), -(height(x, y + e) - height(x, y - e)) / (2 * e), 1).normalized();
+    keys.row(k) << x, y, height(x, y);
+    normals.row(k) = n.transpose();
+  }
+  const fe::ShotSet truth = fe::compute_shot(keys, normals, on_part.points, on_part.normals, h, radii, 1, {});
+  const fe::ShotSet cut = fe::compute_shot(keys, normals, on_bump.points, on_bump.normals, h, radii, 1, {});
+  const fe::ShotSet continued = fe::compute_shot(keys, normals, skirted, skirted_n, h, radii, 1, {});
+  double to_cut = 0, to_continued = 0;
+  for (int k = 0; k < 8; ++k) {
+    to_cut += (cut.desc.row(k) - truth.desc.row(k)).norm();
+    to_continued += (continued.desc.row(k) - truth.desc.row(k)).norm();
+  }
+  EXPECT_LT(to_continued, 0.5 * to_cut) << "picked alone " << to_cut / 8 << ", continued by its skirt " << to_continued / 8;
 }

@@ -28,6 +28,7 @@ struct Params {
   double shot_radius = 0.10;        ///< smallest SHOT support radius
   int shot_radii = 3;               ///< number of SHOT radii per descriptor (paper: multiple radii)
   double shot_radius_ratio = 1.26;  ///< ratio between consecutive SHOT radii (also the scale step)
+  bool border_skirt = false;        ///< a reference's open border is continued (skirt.h) in the support of its normals, shape index and SHOT (off: see docs/benchmarks.md)
   double scale_min = 0.8;           ///< smallest instance/reference scale searched; below 0.8 in scale bands (extract())
   double scale_max = 2.6;           ///< largest instance/reference scale searched; above 2.6 in scale bands
 
