@@ -15,7 +15,6 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
-#include <memory>
 #include <sstream>
 #include <unordered_map>
 
@@ -146,7 +145,7 @@ namespace {
 
 // Steps 1 and 2 for a new description: dense and sparse samples, their normals, the kd-tree, the
 // sparse samples' shape index.
-void sample_and_index(const TriangleMesh& mesh, const TriangleMesh* skirt, double L, const Params& p, const ProgressFn& progress, const std::string& who,
+void sample_and_index(const TriangleMesh& mesh, const TriangleMesh& skirt, double L, const Params& p, const ProgressFn& progress, const std::string& who,
                       const std::string& name, ShapeDescription::Impl* d, Stopwatch& sw) {
   // Step 1: dense and sparse samples.
   report(progress, who + ": sampling", 0);
@@ -179,8 +178,8 @@ void sample_and_index(const TriangleMesh& mesh, const TriangleMesh* skirt, doubl
   // The skirt is support only: no sample on it is a key point, and matches are judged without it.
   Samples on_skirt, support;  // the skirt's samples; the dense samples and those, when there is a skirt
   std::shared_ptr<KdTree3> support_tree;
-  if (skirt && skirt->triangles.rows() > 0) {
-    on_skirt = sample_surface(*skirt, d->dense_h, p.seed + 2);
+  if (skirt.triangles.rows() > 0) {
+    on_skirt = sample_surface(skirt, d->dense_h, p.seed + 2);
     auto both = [](const auto& a, const auto& b) {
       std::decay_t<decltype(a)> c(a.rows() + b.rows(), a.cols());
       c << a, b;
@@ -190,7 +189,7 @@ void sample_and_index(const TriangleMesh& mesh, const TriangleMesh* skirt, doubl
                both(d->dense.face_ids, on_skirt.face_ids), both(d->dense.triangle_ids, Eigen::VectorXi::Constant(on_skirt.points.rows(), -1))};
     support_tree = std::make_shared<KdTree3>(support.points);
     if (std::getenv("FE_DEBUG"))
-      std::fprintf(stderr, "debug: reference skirt: %ld triangles, %ld samples\n", static_cast<long>(skirt->triangles.rows()), static_cast<long>(on_skirt.size()));
+      std::fprintf(stderr, "debug: reference skirt: %ld triangles, %ld samples\n", static_cast<long>(skirt.triangles.rows()), static_cast<long>(on_skirt.size()));
   }
   const bool skirted = support_tree != nullptr;
   const KdTree3& tree = skirted ? *support_tree : *d->dense_tree;
@@ -258,11 +257,10 @@ ShapeDescription describe_impl(const TriangleMesh& mesh, ShapeDescription::Role 
     d->support_normals = base->support_normals;
     d->warnings = base->warnings;
   } else {
-    // the skirt (skirt.h) at least as wide as the largest SHOT support
-    std::unique_ptr<TriangleMesh> skirt;
-    if (is_ref && p.border_skirt)
-      skirt = std::make_unique<TriangleMesh>(border_skirt(mesh, p.shot_radius * L * std::pow(p.shot_radius_ratio, p.shot_radii - 1)));
-    sample_and_index(mesh, skirt.get(), L, p, progress, who, name, d.get(), sw);
+    // the skirt (skirt.h) as wide as the largest SHOT support; none (no triangles) without border_skirt
+    const TriangleMesh skirt = is_ref && p.border_skirt ? border_skirt(mesh, p.shot_radius * L * std::pow(p.shot_radius_ratio, p.shot_radii - 1))
+                                                         : TriangleMesh{};
+    sample_and_index(mesh, skirt, L, p, progress, who, name, d.get(), sw);
   }
 
   // Step 3: key points.
