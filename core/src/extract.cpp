@@ -190,6 +190,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
   for (std::size_t oi = 0; oi < order.size(); ++oi) {
     std::vector<KeyPointPair> pairs = cluster_pairs[order[oi]];
     int failures = 0;
+    int far_failures = 0;  // rejections in a row whose error is at its cap, before the cluster's first instance (max_far_failures)
+    bool cluster_found = false;
     int retries_missed = 0;  // unguided retries in a row that found nothing
     // progress: clusters done, and within this one the share of its pairs explained or dropped
     const double initial_pairs = static_cast<double>(std::max<std::size_t>(1, pairs.size()));
@@ -207,6 +209,7 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
     };
     auto attempt = [&](const std::vector<KeyPointPair>& ps, bool guided) {
       Attempt a;
+      ++res.ransac_searches;
       Points rp(static_cast<Eigen::Index>(ps.size()), 3), tp(static_cast<Eigen::Index>(ps.size()), 3);
       for (std::size_t i = 0; i < ps.size(); ++i) {
         rp.row(static_cast<Eigen::Index>(i)) = R.keys.row(ps[i].ref);
@@ -287,7 +290,8 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       }
       return a;
     };
-    while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures && found.size() < 500) {
+    while (static_cast<int>(pairs.size()) >= p.min_cluster_pairs && failures < p.max_failures &&
+           (p.max_far_failures <= 0 || far_failures < p.max_far_failures) && found.size() < 500) {
       report(progress, "ransac", ransac_fraction());
       Attempt a = attempt(pairs, true);
       if (!a.any) {
@@ -351,11 +355,21 @@ Result match_core(const ShapeDescription& refd, const ShapeDescription& tgtd, co
       pairs.swap(rest);
       if (!accepted) {
         ++failures;
+        // At the cap, a tenth or more of the mapped reference lies twice the acceptance error off the
+        // target or faces away from it: a fit of nothing shaped like the feature, not a near miss.
+        // Counted until the cluster's first instance: on a real part the instances can be a few of
+        // many pairs, and after the first one the search may wander before the next (FTC-10's
+        // drilled holes: found after 7 such rejections in a row).
+        far_failures = !cluster_found && ev.error >= scorer.normal_penalty() ? far_failures + 1 : 0;
         continue;
       }
       failures = 0;
+      far_failures = 0;
+      cluster_found = true;
       add_instance(H, s, ev, mtree, a.chosen.rms_unrefined, static_cast<int>(explained));
     }
+    if (debug && p.max_far_failures > 0 && far_failures >= p.max_far_failures)
+      std::fprintf(stderr, "debug: cluster %zu given up with %zu pairs left: %d fits in a row at the error's cap before any instance\n", order[oi], pairs.size(), far_failures);
   }
   res.timings.push_back({"ransac", sw.lap()});
 
@@ -563,6 +577,7 @@ Result with_fallback(const Params& params, Run run) {
     << second.matches.size() << " instance(s)";
   second.warnings.insert(second.warnings.begin(), w.str());
   if (first > 0) second.timings.insert(second.timings.begin(), {"first_pass", first});
+  second.ransac_searches += res.ransac_searches;
   return second;
 }
 

@@ -146,6 +146,7 @@ int join(Result& res, Result other, const Eigen::Matrix4d& M, bool mirrored, dou
   res.pairs_ss += other.pairs_ss;
   res.clusters += other.clusters;
   res.topology_matches += other.topology_matches;
+  res.ransac_searches += other.ransac_searches;
   for (const auto& t : other.timings)
     if (!mirrored || t.first.rfind("target_", 0) != 0) res.timings.push_back({prefix + t.first, t.second});
   if (!mirrored)  // a band's own description of the part (sampled coarser than asked, ...)

@@ -58,7 +58,8 @@ std::string result_to_json(const Result& r, int indent) {
   j["feature_size"] = num(r.feature_size);
   j["symmetry"] = {{"kind", r.symmetry}};
   if (r.symmetry != "none") j["symmetry"]["axis"] = {vec(r.symmetry_point), vec(r.symmetry_axis)};
-  j["pairs"] = {{"shot", r.pairs_shot}, {"shot_si_filtered", r.pairs_ss}, {"clusters", r.clusters}, {"topology_matches", r.topology_matches}};
+  j["pairs"] = {{"shot", r.pairs_shot}, {"shot_si_filtered", r.pairs_ss}, {"clusters", r.clusters}, {"topology_matches", r.topology_matches},
+                {"ransac_searches", r.ransac_searches}};
   j["parameters"] = nlohmann::ordered_json::parse(params_to_json(r.params));
   nlohmann::ordered_json t = nlohmann::ordered_json::object();
   double total = 0;

@@ -636,6 +636,23 @@ TEST(EndToEnd, TargetWithNothingSimilarGivesNoMatch) {
   EXPECT_GT(r.target.key_points, 0u);  // it did look
 }
 
+// A feature that is not on the part costs its RANSAC searches. Before a cluster's first instance,
+// two rejected fits in a row whose error is at its cap (a tenth of the mapped reference off the
+// target or facing away) end the cluster's search (max_far_failures); max_failures alone let it
+// run to eight.
+TEST(EndToEnd, AFeatureNotOnThePartIsGivenUpAfterTwoFitsOfNothing) {
+  const Case c = load("rib_reference.step", "boss_only.step");
+  fe::Params p;
+  const fe::Result cut = fe::extract(c.ref, c.tgt, p);
+  p.max_far_failures = 0;
+  const fe::Result full = fe::extract(c.ref, c.tgt, p);
+  EXPECT_TRUE(cut.matches.empty());
+  EXPECT_TRUE(full.matches.empty());
+  EXPECT_GT(cut.ransac_searches, 0u);  // it did search
+  EXPECT_LT(cut.ransac_searches, full.ransac_searches);
+  EXPECT_NE(fe::result_to_json(cut).find("\"ransac_searches\": " + std::to_string(cut.ransac_searches)), std::string::npos);
+}
+
 TEST(EndToEnd, SameSeedSameResult) {
   const Case c = load("rib_reference.step", "ribs_bosses.step");
   fe::Params p;

@@ -56,6 +56,7 @@ struct Params {
   bool topology_hypotheses = true;   ///< also try affine maps from matching how the reference's faces meet (issue 9: machined features)
   int refine_iterations = 30;        ///< surface refinement (ICP-like) iterations after RANSAC; 0 = paper
   int max_failures = 8;              ///< a cluster is given up after this many rejected transforms in a row
+  int max_far_failures = 2;          ///< ... or, before its first instance, after this many in a row whose error is at its cap (2 x accept_error); 0 = off
   double error_quantile = 0.9;        ///< 1.0 = paper's maximum error; < 1 = that quantile (robust)
   double accept_error = 0.05;        ///< accept if that error <= this x L x scale
   double min_score = 0.6;            ///< accept if this fraction of the mapped reference lies on the target

@@ -50,6 +50,7 @@ struct Result {
   double feature_size = 0;  ///< L: reference bounding-box diagonal, unit of relative parameters
   std::size_t pairs_shot = 0, pairs_ss = 0, clusters = 0;
   std::size_t topology_matches = 0;  ///< matches of the reference's faces on the target's (topology_hypotheses)
+  std::size_t ransac_searches = 0;   ///< RANSAC searches run on the clusters' pairs, unguided retries included: most of what a feature that is not on the part costs
   std::vector<std::pair<std::string, double>> timings;  ///< stage -> seconds, in order
   std::vector<std::string> warnings;
   Params params;
