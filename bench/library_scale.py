@@ -78,14 +78,15 @@ def main():
         rows[label] = {"seconds": [x["seconds"] for x in runs], "median": statistics.median(x["seconds"] for x in runs),
                        "descriptions": r["descriptions_built"], "tessellations": r["tessellations"],
                        "matches": {f["name"]: len(f["matches"]) for f in r["features"]},
+                       "ransac_searches": sum(f.get("ransac_searches", 0) for f in r["features"]),
                        "errors": sum(1 for f in r["features"] if f["error"])}
     base = rows["1 feature"]["median"]
     print(f"target {os.path.basename(target)}; library: {a.features} MFCAD features; seconds are medians of {a.repeat}")
-    print("| search | seconds | vs one feature | target descriptions | tessellations | instances found | features refused |")
-    print("|---|---|---|---|---|---|---|")
+    print("| search | seconds | vs one feature | target descriptions | tessellations | RANSAC searches | instances found | features refused |")
+    print("|---|---|---|---|---|---|---|---|")
     for label, r in rows.items():
         print(f"| {label} | {r['median']:.1f} | {r['median'] / base:.1f}x | {r['descriptions']} | {r['tessellations']} | "
-              f"{sum(r['matches'].values())} | {r['errors']} |")
+              f"{r['ransac_searches']} | {sum(r['matches'].values())} | {r['errors']} |")
     a0, a3 = rows[f"{a.features} features, size_ladder 0"]["matches"], rows[f"{a.features} features, size_ladder 3"]["matches"]
     diff = {k: (a0[k], a3[k]) for k in a0 if a0[k] != a3.get(k)}
     print(f"features whose instance count differs between size_ladder 0 and 3: {len(diff)} {diff if diff else ''}")

@@ -394,6 +394,7 @@ def search_part(library, target, overrides=None, time_limit=None, progress=None)
             entry["matches"] = res.get("matches", [])
             entry["params"] = res.get("parameters")  # as used: the feature's, the ladder's and the caller's
             entry["warnings"] = res.get("warnings", [])  # e.g. a box's cut faces left out, the ridge-and-rut fallback
+            entry["ransac_searches"] = res.get("pairs", {}).get("ransac_searches", 0)  # what a feature that is not there cost
         except fxm.TimeLimitError:
             raise
         except ValueError as e:  # InputError: this feature cannot be searched; the others go on

@@ -52,6 +52,7 @@ class Library(unittest.TestCase):
             self.assertEqual(f["params"]["size_ladder"], 3, f["name"])
             self.assertEqual(f["params"]["seed"], 1, f["name"])
             self.assertIsInstance(f["warnings"], list)
+            self.assertGreater(f["ransac_searches"], 0, f["name"])  # what each search cost, in RANSAC searches
 
     def test_two_features_on_the_same_faces_are_reported_and_ranked(self):
         lib = os.path.join(self.dir, "twice")
