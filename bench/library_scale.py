@@ -3,7 +3,7 @@
 20 features for at most 3 times one), with the feature sizes rounded to the size ladder (the library
 search's default, size_ladder 3) and without it (size_ladder 0, every feature described at its own size).
 
-    /usr/bin/python3 bench/library_scale.py [--build build] [--features 20] [--repeat 1] [--out JSON]
+    /usr/bin/python3 bench/library_scale.py [--build build] [--features 20] [--repeat 1] [--out JSON] [--set NAME=VALUE]
 
 The library is made the way a user makes one, `featureextract library add` of labelled faces: the
 first instance of the labelled class of each MFCAD part (../shared/data/mfcad, MIT licence) after the
@@ -46,10 +46,11 @@ def make_library(exe, folder, parts, n):
     return made
 
 
-def search(exe, library, target, ladder):
+def search(exe, library, target, ladder, overrides=()):
     with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as t:
         out = t.name
-    run([exe, "search", "--library", library, "--target", target, "--output", out, "--set", f"size_ladder={ladder}"])
+    run([exe, "search", "--library", library, "--target", target, "--output", out, "--set", f"size_ladder={ladder}",
+         *[x for kv in overrides for x in ("--set", kv)]])
     r = json.load(open(out))
     os.unlink(out)
     return r
@@ -62,6 +63,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--work", default=None, help="folder for the libraries (default: a temporary one)")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="engine parameter for every search (A/B runs)")
     a = ap.parse_args()
     exe = os.path.join(a.build, "featureextract")
     parts = json.load(open(os.path.join(MFCAD, "index.json")))["parts"]
@@ -73,7 +75,7 @@ def main():
     rows = {}
     for label, lib, ladder in (("1 feature", one, 3), (f"{a.features} features, size_ladder 0", many, 0),
                                (f"{a.features} features, size_ladder 3", many, 3)):
-        runs = [search(exe, lib, target, ladder) for _ in range(a.repeat)]
+        runs = [search(exe, lib, target, ladder, a.set) for _ in range(a.repeat)]
         r = runs[0]
         rows[label] = {"seconds": [x["seconds"] for x in runs], "median": statistics.median(x["seconds"] for x in runs),
                        "descriptions": r["descriptions_built"], "tessellations": r["tessellations"],
